@@ -1,0 +1,184 @@
+/**
+ * @file scan_split.hpp
+ * @brief Range-adaptive Ramer-Douglas-Peucker split of one 2D scan line into
+ *        straight line segments and edge points. ROS-free.
+ *
+ * Units: ranges and coordinates [m], angles [rad]. Points are in the frame of
+ * the scan (x forward at angle 0, y to the left, z = 0).
+ */
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace tilt_laser_perception {
+namespace core {
+
+/// Point moments of a set of 2D points: count, sums and sums of products.
+/// Moments of disjoint sets add up; they give the exact least-squares line
+/// (and, lifted to 3D, plane) fit of the union without revisiting points.
+struct Moments2 {
+  double n = 0.0;    ///< point count
+  double sx = 0.0;   ///< sum of x [m]
+  double sy = 0.0;   ///< sum of y [m]
+  double sxx = 0.0;  ///< sum of x*x [m^2]
+  double sxy = 0.0;  ///< sum of x*y [m^2]
+  double syy = 0.0;  ///< sum of y*y [m^2]
+
+  void add(double x, double y) {
+    n += 1.0; sx += x; sy += y; sxx += x * x; sxy += x * y; syy += y * y;
+  }
+  Moments2& operator+=(const Moments2& o) {
+    n += o.n; sx += o.sx; sy += o.sy; sxx += o.sxx; sxy += o.sxy; syy += o.syy;
+    return *this;
+  }
+};
+
+/// Orthogonal least-squares line through a set of points.
+struct LineFit {
+  Eigen::Vector2d centroid{0.0, 0.0};   ///< [m]
+  Eigen::Vector2d direction{1.0, 0.0};  ///< unit direction
+  double rms = 0.0;                     ///< rms orthogonal distance [m]
+};
+
+/// Fits a line to moments (n >= 2). The direction's sign is arbitrary.
+LineFit fitLine(const Moments2& m);
+
+/// What makes an edge point.
+enum class EdgeKind : std::uint8_t {
+  Jump = 1,      ///< near side of a depth jump
+  Occluded = 2,  ///< far side of a depth jump (the surface goes on behind)
+  Crease = 3,    ///< split point between two segments of one surface run
+  Boundary = 4,  ///< next to invalid returns or the end of the scan
+};
+
+/// Human-readable name of an edge kind ("jump", "occluded", ...).
+const char* edgeKindName(EdgeKind k);
+
+/// A fitted straight line segment.
+struct Segment {
+  int first = 0;              ///< first beam index (inclusive)
+  int last = 0;               ///< last beam index (inclusive)
+  Eigen::Vector2d start;      ///< first point projected on the fitted line [m]
+  Eigen::Vector2d end;        ///< last point projected on the fitted line [m]
+  Eigen::Vector2d direction;  ///< unit vector from start to end
+  int count = 0;              ///< valid points fitted
+  double rms = 0.0;           ///< rms orthogonal error [m]
+  Moments2 moments;           ///< moments of the fitted points
+};
+
+/// An edge point of the scan line.
+struct EdgePoint {
+  int index = 0;                ///< beam index
+  EdgeKind kind = EdgeKind::Boundary;
+  double angle = 0.0;           ///< crease: angle between adjacent segments [rad]; NaN otherwise
+  Eigen::Vector2d point;        ///< position [m]
+};
+
+/// Threshold mode of the split.
+enum class SplitMode : std::uint8_t {
+  Adaptive = 0,  ///< d_T = max(d_min, zeta * R), R the range of the farthest point
+  Fixed = 1,     ///< d_T = d_min
+};
+
+/// Split settings. Defaults: the paper's zeta = 0.01 with a floor at the
+/// data sheet's +-30 mm accuracy.
+struct SplitParams {
+  SplitMode mode = SplitMode::Adaptive;
+  double zeta = 0.01;        ///< adaptive factor [1]
+  double d_min = 0.03;       ///< threshold floor; the threshold in fixed mode [m]
+  double jump_min = 0.05;    ///< depth jump threshold at zero range [m]
+  double jump_ratio = 0.05;  ///< depth jump threshold growth with range [1]
+  int min_points = 5;        ///< fewer points than this: no segment
+  bool merge = true;         ///< merge neighbouring pieces whose union lies within d_T of its fitted line
+
+  /// Empty when valid, else a message naming the bad parameter.
+  std::string validate() const;
+  /// Split threshold for a point at range r [m].
+  double threshold(double r) const {
+    if (mode == SplitMode::Fixed) return d_min;
+    const double t = zeta * r;
+    return t > d_min ? t : d_min;
+  }
+  /// Depth jump threshold between neighbouring returns, the nearer at range r [m].
+  double jumpThreshold(double r) const { return jump_min + jump_ratio * r; }
+};
+
+/// One scan line, as in sensor_msgs/LaserScan (not owned).
+struct ScanView {
+  const float* ranges = nullptr;       ///< [m]
+  std::size_t size = 0;
+  const float* intensities = nullptr;  ///< optional
+  std::size_t intensities_size = 0;    ///< 0 when there are none
+  double angle_min = 0.0;              ///< [rad]
+  double angle_max = 0.0;              ///< [rad]
+  double angle_increment = 0.0;        ///< [rad]
+  double range_min = 0.0;              ///< [m]
+  double range_max = 0.0;              ///< [m]
+};
+
+/// Why a scan is rejected.
+enum class ScanError : std::uint8_t {
+  None = 0,
+  Empty,                 ///< no ranges
+  IntensitySize,         ///< intensities present with another size than ranges
+  BadIncrement,          ///< angle_increment zero, negative or not finite
+  InconsistentAngles,    ///< angle_min + (n-1) * increment != angle_max
+  BadRangeLimits,        ///< range_min/max not finite or range_max <= range_min
+};
+constexpr int kScanErrorCount = 6;
+
+/// Short name of a scan error ("empty", ...).
+const char* scanErrorName(ScanError e);
+
+/// Checks a scan before splitting. Tolerates angle_max off by up to half an increment.
+ScanError checkScan(const ScanView& scan);
+
+/// Result of a split; reuse one across scans so that steady state does not allocate.
+struct SplitResult {
+  std::vector<Segment> segments;
+  std::vector<EdgePoint> edges;
+  int valid_points = 0;  ///< returns inside [range_min, range_max]
+};
+
+/// The scan line splitter. Keeps its buffers between scans: after the first
+/// scan of a given size it does not allocate. Not thread-safe.
+class ScanSplitter {
+ public:
+  explicit ScanSplitter(const SplitParams& params = SplitParams());
+
+  /// Replaces the settings (must be valid: see SplitParams::validate).
+  void setParams(const SplitParams& params) { params_ = params; }
+  const SplitParams& params() const { return params_; }
+
+  /// Splits a scan. Returns the check's verdict; on an error `out` is cleared.
+  ScanError split(const ScanView& scan, SplitResult& out);
+
+ private:
+  struct Run {
+    int first, last;              // beam indices of the run's first and last valid return
+    EdgeKind start_kind, end_kind;
+  };
+  void updateTrig(const ScanView& scan);
+  void splitRun(const Run& run, SplitResult& out);
+  void fitSegment(int first, int last, Segment& seg) const;
+  Moments2 rangeMoments(int first, int last) const;
+  bool withinTolerance(int first, int last) const;
+
+  SplitParams params_;
+  // per-beam buffers
+  std::vector<double> cos_, sin_, x_, y_, r_;
+  std::vector<unsigned char> valid_;
+  std::vector<Moments2> prefix_;  // prefix_[i]: moments of the valid beams before i
+  double trig_angle_min_ = 0.0, trig_increment_ = 0.0;
+  std::vector<Run> runs_;
+  std::vector<std::pair<int, int>> stack_;
+  std::vector<std::pair<int, int>> pieces_;
+};
+
+}  // namespace core
+}  // namespace tilt_laser_perception

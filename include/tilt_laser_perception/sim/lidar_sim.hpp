@@ -1,0 +1,113 @@
+/**
+ * @file lidar_sim.hpp
+ * @brief Ray-casting model of the Hokuyo UTM-30LX(-EW) with data-sheet noise,
+ *        no-return rules, mixed pixels, intensities and per-beam ground truth.
+ *        ROS-free. Units: [m], [rad], [s].
+ */
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <random>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "tilt_laser_perception/core/scan_split.hpp"
+#include "tilt_laser_perception/sim/scene.hpp"
+
+namespace tilt_laser_perception {
+namespace sim {
+
+/// Scan geometry and timing of the UTM-30LX: 1081 steps over 270 deg, front
+/// step 540 at 0 rad, 0.25 deg apart, 1440 steps per 25 ms revolution.
+struct LidarModel {
+  int beams = 1081;
+  int front_step = 540;
+  double angle_increment = 0.25 * M_PI / 180.0;  ///< [rad]
+  int steps_per_revolution = 1440;
+  double scan_period = 0.025;  ///< [s]
+  double range_min = 0.023;    ///< reported minimum [m]
+  double range_max = 60.0;     ///< reported maximum [m]
+  double max_detect_range = 60.0;  ///< detection range at reflectivity 1 [m]; 30 m at 0.5
+
+  double angleMin() const { return -front_step * angle_increment; }
+  double angleMax() const { return (beams - 1 - front_step) * angle_increment; }
+  double angle(int i) const { return (i - front_step) * angle_increment; }
+  /// Time of beam i after beam 0 [s].
+  double timeIncrement() const { return scan_period / steps_per_revolution; }
+  double beamTime(int i) const { return i * timeIncrement(); }
+};
+
+/// Range noise.
+enum class NoiseMode {
+  None,       ///< exact ranges (still rounded to mm)
+  Datasheet,  ///< +-30 mm up to 10 m, +-50 mm beyond, taken as 3 sigma (sigma 10 mm = the repeatability)
+  Percent,    ///< +-percent % of range taken as 3 sigma (the paper's 1 % model)
+};
+
+struct NoiseParams {
+  NoiseMode mode = NoiseMode::Datasheet;
+  double percent = 1.0;                  ///< bound for NoiseMode::Percent [%]
+  double grazing_limit_deg = 85.0;       ///< no return beyond this incidence angle [deg]
+  double mixed_pixel_probability = 0.5;  ///< chance that a beam straddling a depth jump mixes both ranges
+  double dropout_probability = 0.0;      ///< chance of a random no-return
+
+  /// Standard deviation of the range noise at range r [m].
+  double sigma(double r) const;
+};
+
+/// A true edge of the scan line, for scoring edge points.
+struct TrueEdge {
+  int index = 0;  ///< beam index (near side for a jump)
+  core::EdgeKind kind = core::EdgeKind::Boundary;
+};
+
+/// One simulated scan with its ground truth.
+struct SimScan {
+  double stamp = 0.0;                 ///< time of beam 0 [s]
+  LidarModel model;
+  std::vector<float> ranges;          ///< measured [m]; +inf where there is no return (REP 117)
+  std::vector<float> intensities;     ///< arbitrary units
+  std::vector<float> true_ranges;     ///< noise-free range of the centre ray [m]; NaN: nothing hit
+  std::vector<int> face;              ///< face hit by the centre ray; -1 none
+  std::vector<unsigned char> mixed;   ///< 1 where the return is a mixed pixel
+  std::vector<TrueEdge> edges;        ///< true edges, in beam order
+
+  /// View for the splitter (points into this object).
+  core::ScanView view() const;
+};
+
+/// Pose of the sensor frame in the scene frame at time t [s].
+using PoseFunction = std::function<Eigen::Isometry3d(double)>;
+
+/// Simulates scans of a scene. Deterministic for a seed.
+class LidarSimulator {
+ public:
+  LidarSimulator(const Scene& scene, const LidarModel& model, const NoiseParams& noise, std::uint64_t seed);
+
+  /// Simulates the scan whose beam 0 is at time t0; the pose is evaluated at every beam's own time.
+  void scan(double t0, const PoseFunction& pose, SimScan& out);
+  SimScan scan(double t0, const PoseFunction& pose) {
+    SimScan s;
+    scan(t0, pose, s);
+    return s;
+  }
+
+  const LidarModel& model() const { return model_; }
+
+ private:
+  const Scene& scene_;
+  LidarModel model_;
+  NoiseParams noise_;
+  std::mt19937_64 rng_;
+};
+
+/// True edges from the per-beam faces and returns: creases between faces that
+/// meet, jumps (at the nearer beam) between faces that do not, boundaries next
+/// to beams without a return and at the ends of the scan.
+std::vector<TrueEdge> trueEdges(const Scene& scene, const std::vector<int>& face,
+                                const std::vector<float>& ranges, const std::vector<float>& true_ranges);
+
+}  // namespace sim
+}  // namespace tilt_laser_perception

@@ -1,0 +1,258 @@
+#include "tilt_laser_perception/core/scan_split.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace tilt_laser_perception {
+namespace core {
+
+LineFit fitLine(const Moments2& m) {
+  LineFit f;
+  if (m.n <= 0.0) return f;
+  const double mx = m.sx / m.n, my = m.sy / m.n;
+  f.centroid = Eigen::Vector2d(mx, my);
+  const double cxx = m.sxx / m.n - mx * mx;
+  const double cyy = m.syy / m.n - my * my;
+  const double cxy = m.sxy / m.n - mx * my;
+  const double phi = 0.5 * std::atan2(2.0 * cxy, cxx - cyy);
+  f.direction = Eigen::Vector2d(std::cos(phi), std::sin(phi));
+  const double half_tr = 0.5 * (cxx + cyy);
+  const double disc = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
+  f.rms = std::sqrt(std::max(0.0, half_tr - disc));
+  return f;
+}
+
+const char* edgeKindName(EdgeKind k) {
+  switch (k) {
+    case EdgeKind::Jump: return "jump";
+    case EdgeKind::Occluded: return "occluded";
+    case EdgeKind::Crease: return "crease";
+    case EdgeKind::Boundary: return "boundary";
+  }
+  return "unknown";
+}
+
+const char* scanErrorName(ScanError e) {
+  switch (e) {
+    case ScanError::None: return "none";
+    case ScanError::Empty: return "empty scan";
+    case ScanError::IntensitySize: return "intensities and ranges differ in size";
+    case ScanError::BadIncrement: return "angle_increment zero, negative or not finite";
+    case ScanError::InconsistentAngles: return "angle_min + (n-1)*angle_increment != angle_max";
+    case ScanError::BadRangeLimits: return "range_min/range_max invalid";
+  }
+  return "unknown";
+}
+
+std::string SplitParams::validate() const {
+  std::ostringstream s;
+  if (!(std::isfinite(zeta) && zeta >= 0.0 && zeta < 1.0))
+    s << "zeta must be in [0, 1), got " << zeta;
+  else if (!(std::isfinite(d_min) && d_min >= 0.0 && d_min < 10.0))
+    s << "d_min must be in [0, 10) m, got " << d_min;
+  else if (mode == SplitMode::Adaptive && zeta == 0.0 && d_min == 0.0)
+    s << "zeta and d_min are both 0: every point would be split off";
+  else if (mode == SplitMode::Fixed && d_min == 0.0)
+    s << "fixed mode needs d_min > 0";
+  else if (!(std::isfinite(jump_min) && jump_min >= 0.0))
+    s << "jump_min must be >= 0 m, got " << jump_min;
+  else if (!(std::isfinite(jump_ratio) && jump_ratio >= 0.0))
+    s << "jump_ratio must be >= 0, got " << jump_ratio;
+  else if (jump_min == 0.0 && jump_ratio == 0.0)
+    s << "jump_min and jump_ratio are both 0: every pair of returns would be a jump";
+  else if (min_points < 2)
+    s << "min_points must be >= 2, got " << min_points;
+  return s.str();
+}
+
+ScanError checkScan(const ScanView& scan) {
+  if (scan.size == 0 || scan.ranges == nullptr) return ScanError::Empty;
+  if (scan.intensities_size != 0 && scan.intensities_size != scan.size) return ScanError::IntensitySize;
+  if (!std::isfinite(scan.angle_increment) || !(scan.angle_increment > 0.0)) return ScanError::BadIncrement;
+  if (!std::isfinite(scan.angle_min) || !std::isfinite(scan.angle_max)) return ScanError::InconsistentAngles;
+  const double expected_max = scan.angle_min + static_cast<double>(scan.size - 1) * scan.angle_increment;
+  if (std::abs(expected_max - scan.angle_max) > 0.5 * scan.angle_increment + 1e-9)
+    return ScanError::InconsistentAngles;
+  if (!std::isfinite(scan.range_min) || std::isnan(scan.range_max) || !(scan.range_max > scan.range_min))
+    return ScanError::BadRangeLimits;
+  return ScanError::None;
+}
+
+ScanSplitter::ScanSplitter(const SplitParams& params) : params_(params) {}
+
+void ScanSplitter::updateTrig(const ScanView& scan) {
+  if (cos_.size() == scan.size && trig_angle_min_ == scan.angle_min && trig_increment_ == scan.angle_increment)
+    return;
+  cos_.resize(scan.size);
+  sin_.resize(scan.size);
+  for (std::size_t i = 0; i < scan.size; ++i) {
+    const double a = scan.angle_min + static_cast<double>(i) * scan.angle_increment;
+    cos_[i] = std::cos(a);
+    sin_[i] = std::sin(a);
+  }
+  trig_angle_min_ = scan.angle_min;
+  trig_increment_ = scan.angle_increment;
+}
+
+ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
+  out.segments.clear();
+  out.edges.clear();
+  out.valid_points = 0;
+  const ScanError err = checkScan(scan);
+  if (err != ScanError::None) return err;
+
+  const int n = static_cast<int>(scan.size);
+  updateTrig(scan);
+  x_.resize(n);
+  y_.resize(n);
+  r_.resize(n);
+  valid_.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const double r = scan.ranges[i];
+    const bool ok = std::isfinite(r) && r >= scan.range_min && r <= scan.range_max;
+    valid_[i] = ok;
+    r_[i] = ok ? r : 0.0;
+    x_[i] = ok ? r * cos_[i] : 0.0;
+    y_[i] = ok ? r * sin_[i] : 0.0;
+    out.valid_points += ok;
+  }
+  // Prefix sums of the point moments: the moments of any run of beams in O(1).
+  prefix_.resize(n + 1);
+  prefix_[0] = Moments2();
+  for (int i = 0; i < n; ++i) {
+    prefix_[i + 1] = prefix_[i];
+    if (valid_[i]) prefix_[i + 1].add(x_[i], y_[i]);
+  }
+
+  // Runs of valid returns without depth jumps.
+  runs_.clear();
+  int start = -1;
+  EdgeKind start_kind = EdgeKind::Boundary;
+  for (int i = 0; i <= n; ++i) {
+    const bool ok = i < n && valid_[i];
+    if (start >= 0) {
+      bool ends = !ok;
+      EdgeKind end_kind = EdgeKind::Boundary;
+      EdgeKind next_start = EdgeKind::Boundary;
+      if (ok && std::abs(r_[i] - r_[i - 1]) > params_.jumpThreshold(std::min(r_[i], r_[i - 1]))) {
+        ends = true;
+        const bool prev_near = r_[i - 1] < r_[i];
+        end_kind = prev_near ? EdgeKind::Jump : EdgeKind::Occluded;
+        next_start = prev_near ? EdgeKind::Occluded : EdgeKind::Jump;
+      }
+      if (ends) {
+        runs_.push_back(Run{start, i - 1, start_kind, end_kind});
+        start = ok ? i : -1;
+        start_kind = next_start;
+      }
+    } else if (ok) {
+      start = i;
+      start_kind = EdgeKind::Boundary;
+    }
+  }
+  for (const Run& run : runs_)
+    if (run.last - run.first + 1 >= params_.min_points) splitRun(run, out);
+  return ScanError::None;
+}
+
+void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
+  // Recursive farthest-point split with an explicit stack, left half first,
+  // so that pieces come out in beam order.
+  pieces_.clear();
+  stack_.clear();
+  stack_.emplace_back(run.first, run.last);
+  while (!stack_.empty()) {
+    const auto [a, b] = stack_.back();
+    stack_.pop_back();
+    int k = -1;
+    double dmax = 0.0;
+    if (b - a >= 2) {
+      const double ax = x_[a], ay = y_[a];
+      const double dx = x_[b] - ax, dy = y_[b] - ay;
+      const double len = std::hypot(dx, dy);
+      for (int i = a + 1; i < b; ++i) {
+        const double px = x_[i] - ax, py = y_[i] - ay;
+        const double d = len > 0.0 ? std::abs(px * dy - py * dx) / len : std::hypot(px, py);
+        if (d > dmax) {
+          dmax = d;
+          k = i;
+        }
+      }
+    }
+    if (k >= 0 && dmax > params_.threshold(r_[k])) {
+      stack_.emplace_back(k + 1, b);
+      stack_.emplace_back(a, k);
+    } else {
+      pieces_.emplace_back(a, b);
+    }
+  }
+
+  // Merge neighbouring pieces whose union lies within d_T of its least-squares
+  // line: the chord test above splits on noisy end points, the fitted line does not.
+  if (params_.merge) {
+    std::size_t w = 0;
+    for (std::size_t i = 1; i < pieces_.size(); ++i) {
+      if (withinTolerance(pieces_[w].first, pieces_[i].second)) pieces_[w].second = pieces_[i].second;
+      else pieces_[++w] = pieces_[i];
+    }
+    pieces_.resize(w + 1);
+  }
+
+  const std::size_t first_seg = out.segments.size();
+  for (const auto& [a, b] : pieces_) {
+    if (b - a + 1 < params_.min_points) continue;
+    out.segments.emplace_back();
+    fitSegment(a, b, out.segments.back());
+  }
+  const std::size_t end_seg = out.segments.size();
+  if (first_seg == end_seg) return;
+
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Segment& head = out.segments[first_seg];
+  out.edges.push_back(EdgePoint{head.first, run.start_kind, nan, head.start});
+  for (std::size_t s = first_seg + 1; s < end_seg; ++s) {
+    const Segment& p = out.segments[s - 1];
+    const Segment& q = out.segments[s];
+    const double angle = std::acos(std::clamp(p.direction.dot(q.direction), -1.0, 1.0));
+    out.edges.push_back(EdgePoint{p.last, EdgeKind::Crease, angle, p.end});
+    if (q.first != p.last + 1) out.edges.push_back(EdgePoint{q.first, EdgeKind::Crease, angle, q.start});
+  }
+  const Segment& tail = out.segments[end_seg - 1];
+  out.edges.push_back(EdgePoint{tail.last, run.end_kind, nan, tail.end});
+}
+
+Moments2 ScanSplitter::rangeMoments(int first, int last) const {
+  const Moments2& a = prefix_[first];
+  const Moments2& b = prefix_[last + 1];
+  return Moments2{b.n - a.n, b.sx - a.sx, b.sy - a.sy, b.sxx - a.sxx, b.sxy - a.sxy, b.syy - a.syy};
+}
+
+bool ScanSplitter::withinTolerance(int first, int last) const {
+  const LineFit fit = fitLine(rangeMoments(first, last));
+  const Eigen::Vector2d normal(-fit.direction.y(), fit.direction.x());
+  for (int i = first; i <= last; ++i) {
+    const double d = std::abs(normal.dot(Eigen::Vector2d(x_[i], y_[i]) - fit.centroid));
+    if (d > params_.threshold(r_[i])) return false;
+  }
+  return true;
+}
+
+void ScanSplitter::fitSegment(int first, int last, Segment& seg) const {
+  seg.first = first;
+  seg.last = last;
+  seg.moments = rangeMoments(first, last);
+  seg.count = last - first + 1;
+  const LineFit fit = fitLine(seg.moments);
+  const Eigen::Vector2d p0(x_[first], y_[first]), p1(x_[last], y_[last]);
+  Eigen::Vector2d d = fit.direction;
+  if (d.dot(p1 - p0) < 0.0) d = -d;
+  seg.direction = d;
+  seg.start = fit.centroid + d * d.dot(p0 - fit.centroid);
+  seg.end = fit.centroid + d * d.dot(p1 - fit.centroid);
+  seg.rms = fit.rms;
+}
+
+}  // namespace core
+}  // namespace tilt_laser_perception

@@ -1,0 +1,118 @@
+#include "tilt_laser_perception/sim/lidar_sim.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace tilt_laser_perception {
+namespace sim {
+
+double NoiseParams::sigma(double r) const {
+  switch (mode) {
+    case NoiseMode::None: return 0.0;
+    case NoiseMode::Datasheet: return r <= 10.0 ? 0.030 / 3.0 : 0.050 / 3.0;
+    case NoiseMode::Percent: return percent / 100.0 * r / 3.0;
+  }
+  return 0.0;
+}
+
+core::ScanView SimScan::view() const {
+  core::ScanView v;
+  v.ranges = ranges.data();
+  v.size = ranges.size();
+  v.intensities = intensities.data();
+  v.intensities_size = intensities.size();
+  v.angle_min = model.angleMin();
+  v.angle_max = model.angleMax();
+  v.angle_increment = model.angle_increment;
+  v.range_min = model.range_min;
+  v.range_max = model.range_max;
+  return v;
+}
+
+LidarSimulator::LidarSimulator(const Scene& scene, const LidarModel& model, const NoiseParams& noise,
+                               std::uint64_t seed)
+    : scene_(scene), model_(model), noise_(noise), rng_(seed) {}
+
+void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
+  const int n = model_.beams;
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  out.stamp = t0;
+  out.model = model_;
+  out.ranges.assign(n, inf);
+  out.intensities.assign(n, 0.0f);
+  out.true_ranges.assign(n, nan);
+  out.face.assign(n, -1);
+  out.mixed.assign(n, 0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const double cos_grazing = std::cos(noise_.grazing_limit_deg * M_PI / 180.0);
+  const double half = 0.5 * model_.angle_increment;
+
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Isometry3d T = pose(t0 + model_.beamTime(i));
+    const Eigen::Vector3d o = T.translation();
+    const Eigen::Vector3d ex = T.linear().col(0), ey = T.linear().col(1);
+    const auto dirAt = [&](double a) -> Eigen::Vector3d { return std::cos(a) * ex + std::sin(a) * ey; };
+    const double a = model_.angle(i);
+    Hit hit;
+    if (!scene_.raycast(o, dirAt(a), model_.max_detect_range, hit)) continue;
+    out.face[i] = hit.face;
+    out.true_ranges[i] = static_cast<float>(hit.t);
+    const double refl = scene_.faces[hit.face].reflectivity;
+    if (hit.t > model_.max_detect_range * refl || hit.cos_incidence < cos_grazing) continue;
+    if (noise_.dropout_probability > 0.0 && uni(rng_) < noise_.dropout_probability) continue;
+
+    double r = hit.t;
+    if (noise_.mixed_pixel_probability > 0.0) {
+      // The beam's footprint reaches half a step either side: where it
+      // straddles a depth jump the sensor may report a range in between.
+      Hit h1, h2;
+      const bool b1 = scene_.raycast(o, dirAt(a - half), model_.max_detect_range, h1);
+      const bool b2 = scene_.raycast(o, dirAt(a + half), model_.max_detect_range, h2);
+      if (b1 && b2 && std::abs(h1.t - h2.t) > 0.05 && uni(rng_) < noise_.mixed_pixel_probability) {
+        r = h1.t + uni(rng_) * (h2.t - h1.t);
+        out.mixed[i] = 1;
+      }
+    }
+    r += noise_.sigma(r) * gauss(rng_);
+    r = std::round(r * 1000.0) / 1000.0;  // the sensor reports millimetres
+    if (r < model_.range_min) continue;
+    out.ranges[i] = static_cast<float>(r);
+    out.intensities[i] = static_cast<float>(8000.0 * refl * hit.cos_incidence / (1.0 + 0.05 * r) + 100.0);
+  }
+  out.edges = trueEdges(scene_, out.face, out.ranges, out.true_ranges);
+}
+
+std::vector<TrueEdge> trueEdges(const Scene& scene, const std::vector<int>& face, const std::vector<float>& ranges,
+                                const std::vector<float>& true_ranges) {
+  std::vector<TrueEdge> edges;
+  const int n = static_cast<int>(face.size());
+  const auto valid = [&](int i) { return std::isfinite(ranges[i]) && face[i] >= 0; };
+  const auto coplanar = [&](int a, int b) {
+    const Face& fa = scene.faces[a];
+    const Face& fb = scene.faces[b];
+    return std::abs(fa.normal.dot(fb.normal)) > 1.0 - 1e-9 && std::abs(fa.normal.dot(fb.origin - fa.origin)) < 1e-4;
+  };
+  if (n > 0 && valid(0)) edges.push_back({0, core::EdgeKind::Boundary});
+  for (int i = 0; i + 1 < n; ++i) {
+    const bool vi = valid(i), vj = valid(i + 1);
+    if (vi && vj) {
+      const int fi = face[i], fj = face[i + 1];
+      if (fi == fj || coplanar(fi, fj)) continue;
+      if (scene.creaseBetween(fi, fj)) {
+        edges.push_back({i, core::EdgeKind::Crease});
+      } else {
+        const int near = true_ranges[i] < true_ranges[i + 1] ? i : i + 1;
+        edges.push_back({near, core::EdgeKind::Jump});
+      }
+    } else if (vi != vj) {
+      edges.push_back({vi ? i : i + 1, core::EdgeKind::Boundary});
+    }
+  }
+  if (n > 1 && valid(n - 1)) edges.push_back({n - 1, core::EdgeKind::Boundary});
+  return edges;
+}
+
+}  // namespace sim
+}  // namespace tilt_laser_perception

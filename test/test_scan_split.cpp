@@ -1,0 +1,329 @@
+// Unit tests of the range-adaptive split on synthetic scan lines with exact expectations.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "tilt_laser_perception/core/scan_split.hpp"
+
+using namespace tilt_laser_perception::core;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr double kInc = 0.25 * kDeg;
+const float kNaN = std::numeric_limits<float>::quiet_NaN();
+const float kInf = std::numeric_limits<float>::infinity();
+
+struct Wall2 {
+  Eigen::Vector2d a, b;
+};
+
+/// A UTM-30LX-like scan (1081 beams over 270 deg) of 2D line segments.
+struct SyntheticScan {
+  int n = 1081;
+  double angle_min = -135.0 * kDeg;
+  std::vector<float> ranges;
+
+  explicit SyntheticScan(const std::vector<Wall2>& walls) : ranges(n, kInf) {
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector2d d(std::cos(angle(i)), std::sin(angle(i)));
+      double best = std::numeric_limits<double>::infinity();
+      for (const auto& w : walls) {
+        const Eigen::Vector2d e = w.b - w.a;
+        const double den = d.x() * e.y() - d.y() * e.x();
+        if (std::abs(den) < 1e-12) continue;
+        const double t = (w.a.x() * e.y() - w.a.y() * e.x()) / den;
+        const double s = (w.a.x() * d.y() - w.a.y() * d.x()) / den;
+        if (t > 0 && s >= 0 && s <= 1 && t < best) best = t;
+      }
+      if (std::isfinite(best)) ranges[i] = static_cast<float>(best);
+    }
+  }
+  double angle(int i) const { return angle_min + i * kInc; }
+  ScanView view() const {
+    ScanView v;
+    v.ranges = ranges.data();
+    v.size = ranges.size();
+    v.angle_min = angle_min;
+    v.angle_increment = kInc;
+    v.angle_max = angle_min + (n - 1) * kInc;
+    v.range_min = 0.023;
+    v.range_max = 60.0;
+    return v;
+  }
+  int beamAt(double deg) const { return static_cast<int>(std::lround((deg * kDeg - angle_min) / kInc)); }
+};
+
+int countKind(const SplitResult& r, EdgeKind k) {
+  int c = 0;
+  for (const auto& e : r.edges) c += e.kind == k;
+  return c;
+}
+
+}  // namespace
+
+TEST(FitLine, ExactPointsOnALine) {
+  Moments2 m;
+  for (int i = 0; i < 10; ++i) m.add(1.0 + 0.5 * i, 2.0 - 0.25 * i);
+  const LineFit f = fitLine(m);
+  EXPECT_NEAR(f.centroid.x(), 1.0 + 0.5 * 4.5, 1e-12);
+  EXPECT_NEAR(f.centroid.y(), 2.0 - 0.25 * 4.5, 1e-12);
+  EXPECT_NEAR(std::abs(f.direction.dot(Eigen::Vector2d(2, -1).normalized())), 1.0, 1e-12);
+  EXPECT_NEAR(f.rms, 0.0, 1e-7);
+}
+
+TEST(FitLine, RmsOfTwoParallelRows) {
+  Moments2 m;  // points at y = +-0.01 alternating: rms distance 0.01
+  for (int i = 0; i < 100; ++i) m.add(0.1 * i, (i % 2) ? 0.01 : -0.01);
+  EXPECT_NEAR(fitLine(m).rms, 0.01, 1e-5);  // the best line tilts a little: just under 0.01
+}
+
+TEST(Split, StraightWallIsOneSegment) {
+  // Wall x = 2 from y = -1 to y = 1.
+  SyntheticScan s({{{2, -1}, {2, 1}}});
+  ScanSplitter splitter;
+  SplitResult r;
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  ASSERT_EQ(r.segments.size(), 1u);
+  const Segment& seg = r.segments[0];
+  int valid = 0;
+  for (float x : s.ranges) valid += std::isfinite(x);
+  EXPECT_EQ(seg.count, valid);
+  EXPECT_EQ(r.valid_points, valid);
+  EXPECT_EQ(seg.moments.n, valid);
+  EXPECT_LT(seg.rms, 1e-6);
+  EXPECT_NEAR(seg.start.x(), 2.0, 1e-6);
+  EXPECT_NEAR(seg.end.x(), 2.0, 1e-6);
+  EXPECT_NEAR(seg.start.y(), 2.0 * std::tan(s.angle(seg.first)), 1e-6);
+  EXPECT_NEAR(seg.end.y(), 2.0 * std::tan(s.angle(seg.last)), 1e-6);
+  EXPECT_GT(seg.end.y(), seg.start.y());  // direction follows the beams
+  ASSERT_EQ(r.edges.size(), 2u);
+  EXPECT_EQ(r.edges[0].kind, EdgeKind::Boundary);
+  EXPECT_EQ(r.edges[1].kind, EdgeKind::Boundary);
+  EXPECT_EQ(r.edges[0].index, seg.first);
+  EXPECT_EQ(r.edges[1].index, seg.last);
+}
+
+TEST(Split, CornerGivesTwoSegmentsAndACrease) {
+  // Room corner at (3, 1): wall x = 3 (y from -1 to 1) meets wall y = 1 (x from 3 to 0).
+  SyntheticScan s({{{3, -1}, {3, 1}}, {{3, 1}, {0.5, 1}}});
+  ScanSplitter splitter;
+  SplitResult r;
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  ASSERT_EQ(r.segments.size(), 2u);
+  const int corner = s.beamAt(std::atan2(1.0, 3.0) / kDeg);
+  ASSERT_EQ(countKind(r, EdgeKind::Crease), 1);
+  for (const auto& e : r.edges) {
+    if (e.kind != EdgeKind::Crease) continue;
+    EXPECT_LE(std::abs(e.index - corner), 1);
+    EXPECT_NEAR(e.angle / kDeg, 90.0, 0.5);
+    EXPECT_NEAR(e.point.x(), 3.0, 0.01);
+    EXPECT_NEAR(e.point.y(), 1.0, 0.01);
+  }
+  EXPECT_EQ(countKind(r, EdgeKind::Boundary), 2);
+  EXPECT_EQ(r.segments[0].last + 1, r.segments[1].first);
+}
+
+TEST(Split, BoardInFrontOfWallGivesJumpsAndOcclusions) {
+  // Board at x = 1 (y -0.3..0.3) in front of a wall at x = 3 (y -2..2).
+  SyntheticScan s({{{1, -0.3}, {1, 0.3}}, {{3, -2}, {3, 2}}});
+  ScanSplitter splitter;
+  SplitResult r;
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  ASSERT_EQ(r.segments.size(), 3u);
+  EXPECT_EQ(countKind(r, EdgeKind::Jump), 2);
+  EXPECT_EQ(countKind(r, EdgeKind::Occluded), 2);
+  EXPECT_EQ(countKind(r, EdgeKind::Boundary), 2);
+  EXPECT_EQ(countKind(r, EdgeKind::Crease), 0);
+  // The board's ends are the jump edges, at the board's true end beams.
+  const int right_end = s.beamAt(-std::atan2(0.3, 1.0) / kDeg);
+  const int left_end = s.beamAt(std::atan2(0.3, 1.0) / kDeg);
+  for (const auto& e : r.edges) {
+    if (e.kind != EdgeKind::Jump) continue;
+    EXPECT_NEAR(e.point.x(), 1.0, 1e-5);
+    EXPECT_TRUE(std::abs(e.index - right_end) <= 1 || std::abs(e.index - left_end) <= 1) << e.index;
+  }
+  EXPECT_NEAR(r.segments[1].start.x(), 1.0, 1e-5);
+}
+
+TEST(Split, InvalidReturnsBreakTheLineAndNeverJoinASegment) {
+  SyntheticScan s({{{2, -1.5}, {2, 1.5}}});
+  const int mid = s.beamAt(0.0);
+  s.ranges[mid - 3] = kNaN;
+  s.ranges[mid - 2] = kInf;
+  s.ranges[mid - 1] = -kInf;
+  s.ranges[mid] = 0.001f;   // below range_min
+  s.ranges[mid + 1] = 99.f;  // above range_max
+  ScanSplitter splitter;
+  SplitResult r;
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  ASSERT_EQ(r.segments.size(), 2u);
+  EXPECT_EQ(r.segments[0].last, mid - 4);
+  EXPECT_EQ(r.segments[1].first, mid + 2);
+  EXPECT_EQ(countKind(r, EdgeKind::Boundary), 4);
+  for (const auto& seg : r.segments) EXPECT_LT(seg.rms, 1e-6);
+}
+
+TEST(Split, ShortRunsMakeNoSegment) {
+  SyntheticScan s({{{2, -1}, {2, 1}}});
+  // Keep only 4 valid returns: fewer than min_points (5).
+  const int mid = s.beamAt(0.0);
+  for (int i = 0; i < s.n; ++i)
+    if (i < mid || i > mid + 3) s.ranges[i] = kInf;
+  ScanSplitter splitter;
+  SplitResult r;
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  EXPECT_EQ(r.segments.size(), 0u);
+  EXPECT_EQ(r.edges.size(), 0u);
+  SplitParams p;
+  p.min_points = 4;
+  splitter.setParams(p);
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  EXPECT_EQ(r.segments.size(), 1u);
+}
+
+TEST(Split, MixedPixelIsLeftOutAndTheBoardEndIsAJump) {
+  SyntheticScan s({{{1, -0.3}, {1, 0.3}}, {{3, -2}, {3, 2}}});
+  // The first beam past the board's left end reports a range halfway.
+  int last_board = -1;
+  for (int i = 0; i < s.n; ++i)
+    if (std::isfinite(s.ranges[i]) && s.ranges[i] < 1.5f) last_board = i;
+  ASSERT_GT(last_board, 0);
+  s.ranges[last_board + 1] = 2.0f;
+  ScanSplitter splitter;
+  SplitResult r;
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  ASSERT_EQ(r.segments.size(), 3u);
+  for (const auto& seg : r.segments) EXPECT_TRUE(last_board + 1 < seg.first || last_board + 1 > seg.last);
+  bool found = false;
+  for (const auto& e : r.edges) found = found || (e.index == last_board && e.kind == EdgeKind::Jump);
+  EXPECT_TRUE(found);
+}
+
+TEST(Split, NoisyFarWallAdaptiveKeepsItWholeFixedSplitsIt) {
+  SyntheticScan s({{{15, -7}, {15, 7}}});
+  std::mt19937_64 rng(42);
+  std::normal_distribution<double> noise(0.0, 0.05 / 3.0);
+  for (auto& x : s.ranges)
+    if (std::isfinite(x)) x = static_cast<float>(x + noise(rng));
+  SplitResult r;
+  ScanSplitter adaptive;
+  ASSERT_EQ(adaptive.split(s.view(), r), ScanError::None);
+  EXPECT_EQ(r.segments.size(), 1u);
+  EXPECT_NEAR(r.segments[0].rms, 0.05 / 3.0, 0.003);
+  SplitParams fp;
+  fp.mode = SplitMode::Fixed;
+  ScanSplitter fixed(fp);
+  ASSERT_EQ(fixed.split(s.view(), r), ScanError::None);
+  EXPECT_GE(r.segments.size(), 3u);
+  EXPECT_GE(countKind(r, EdgeKind::Crease), 2);
+}
+
+TEST(Split, FixedModeEqualsAdaptiveWithZeroZeta) {
+  SyntheticScan s({{{3, -2}, {3, 1}}, {{3, 1}, {0.5, 2}}, {{1, -0.2}, {1, 0.2}}});
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (auto& x : s.ranges)
+    if (std::isfinite(x)) x = static_cast<float>(x + noise(rng));
+  SplitParams fp;
+  fp.mode = SplitMode::Fixed;
+  SplitParams zp;
+  zp.zeta = 0.0;
+  SplitResult a, b;
+  ScanSplitter(fp).split(s.view(), a);
+  ScanSplitter(zp).split(s.view(), b);
+  ASSERT_EQ(a.segments.size(), b.segments.size());
+  for (std::size_t i = 0; i < a.segments.size(); ++i) {
+    EXPECT_EQ(a.segments[i].first, b.segments[i].first);
+    EXPECT_EQ(a.segments[i].last, b.segments[i].last);
+  }
+  EXPECT_EQ(a.edges.size(), b.edges.size());
+}
+
+TEST(Split, ThresholdFollowsRange) {
+  SplitParams p;
+  EXPECT_DOUBLE_EQ(p.threshold(1.0), 0.03);   // floor
+  EXPECT_DOUBLE_EQ(p.threshold(10.0), 0.1);   // zeta * R
+  EXPECT_DOUBLE_EQ(p.threshold(30.0), 0.3);
+  p.mode = SplitMode::Fixed;
+  EXPECT_DOUBLE_EQ(p.threshold(30.0), 0.03);
+  EXPECT_DOUBLE_EQ(p.jumpThreshold(10.0), 0.05 + 0.5);
+}
+
+TEST(Split, SteadyStateDoesNotReallocate) {
+  SyntheticScan s({{{3, -2}, {3, 1}}, {{3, 1}, {0.5, 2}}, {{1, -0.2}, {1, 0.2}}});
+  ScanSplitter splitter;
+  SplitResult r;
+  splitter.split(s.view(), r);
+  const Segment* seg_data = r.segments.data();
+  const EdgePoint* edge_data = r.edges.data();
+  const std::size_t n_seg = r.segments.size();
+  for (int k = 0; k < 10; ++k) splitter.split(s.view(), r);
+  EXPECT_EQ(r.segments.data(), seg_data);
+  EXPECT_EQ(r.edges.data(), edge_data);
+  EXPECT_EQ(r.segments.size(), n_seg);
+}
+
+TEST(Split, BadScansAreRejected) {
+  SyntheticScan s({{{2, -1}, {2, 1}}});
+  ScanSplitter splitter;
+  SplitResult r;
+  splitter.split(s.view(), r);
+  ASSERT_FALSE(r.segments.empty());
+
+  ScanView v = s.view();
+  v.size = 0;
+  EXPECT_EQ(splitter.split(v, r), ScanError::Empty);
+  EXPECT_TRUE(r.segments.empty());
+  v = s.view();
+  std::vector<float> intens(10, 1.0f);
+  v.intensities = intens.data();
+  v.intensities_size = intens.size();
+  EXPECT_EQ(splitter.split(v, r), ScanError::IntensitySize);
+  for (double inc : {0.0, -kInc, std::nan("")}) {
+    v = s.view();
+    v.angle_increment = inc;
+    EXPECT_EQ(splitter.split(v, r), ScanError::BadIncrement) << inc;
+  }
+  v = s.view();
+  v.angle_max += 2 * kInc;  // 1081 ranges do not fit the angles
+  EXPECT_EQ(splitter.split(v, r), ScanError::InconsistentAngles);
+  v = s.view();
+  v.angle_min = std::nan("");
+  EXPECT_EQ(splitter.split(v, r), ScanError::InconsistentAngles);
+  v = s.view();
+  v.range_max = 0.0;
+  EXPECT_EQ(splitter.split(v, r), ScanError::BadRangeLimits);
+  // A good scan after the bad ones is split as before.
+  EXPECT_EQ(splitter.split(s.view(), r), ScanError::None);
+  EXPECT_EQ(r.segments.size(), 1u);
+}
+
+TEST(Split, AllInvalidScanIsValidAndEmpty) {
+  SyntheticScan s({});
+  ScanSplitter splitter;
+  SplitResult r;
+  EXPECT_EQ(splitter.split(s.view(), r), ScanError::None);
+  EXPECT_EQ(r.segments.size(), 0u);
+  EXPECT_EQ(r.valid_points, 0);
+}
+
+TEST(SplitParams, Validation) {
+  SplitParams p;
+  EXPECT_EQ(p.validate(), "");
+  p.zeta = -0.1;
+  EXPECT_NE(p.validate().find("zeta"), std::string::npos);
+  p = SplitParams();
+  p.zeta = 0;
+  p.d_min = 0;
+  EXPECT_NE(p.validate(), "");
+  p = SplitParams();
+  p.min_points = 1;
+  EXPECT_NE(p.validate().find("min_points"), std::string::npos);
+  p = SplitParams();
+  p.jump_min = std::nan("");
+  EXPECT_NE(p.validate().find("jump_min"), std::string::npos);
+}
