@@ -200,6 +200,22 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
     pieces_.resize(w + 1);
   }
 
+  // The split point went to the left piece; give each boundary point to the
+  // piece whose fitted line it is nearer to (the corner may lie on either side).
+  for (std::size_t i = 1; i < pieces_.size(); ++i) {
+    auto& p = pieces_[i - 1];
+    auto& q = pieces_[i];
+    if (p.second - p.first < 2 || q.second - q.first < 2) continue;
+    const int k = p.second;
+    if (lineDistance(q.first, q.second, k) < lineDistance(p.first, k - 1, k)) {
+      --p.second;
+      --q.first;
+    } else if (lineDistance(p.first, p.second, q.first) < lineDistance(q.first + 1, q.second, q.first)) {
+      ++p.second;
+      ++q.first;
+    }
+  }
+
   const std::size_t first_seg = out.segments.size();
   for (const auto& [a, b] : pieces_) {
     if (b - a + 1 < params_.min_points) continue;
@@ -216,8 +232,12 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
     const Segment& p = out.segments[s - 1];
     const Segment& q = out.segments[s];
     const double angle = std::acos(std::clamp(p.direction.dot(q.direction), -1.0, 1.0));
-    out.edges.push_back(EdgePoint{p.last, EdgeKind::Crease, angle, p.end});
-    if (q.first != p.last + 1) out.edges.push_back(EdgePoint{q.first, EdgeKind::Crease, angle, q.start});
+    if (q.first == p.last + 1) {
+      out.edges.push_back(EdgePoint{p.last, EdgeKind::Crease, angle, creasePoint(p, q)});
+    } else {  // points between them were too few for a segment: an edge on either side
+      out.edges.push_back(EdgePoint{p.last, EdgeKind::Crease, angle, p.end});
+      out.edges.push_back(EdgePoint{q.first, EdgeKind::Crease, angle, q.start});
+    }
   }
   const Segment& tail = out.segments[end_seg - 1];
   out.edges.push_back(EdgePoint{tail.last, run.end_kind, nan, tail.end});
@@ -229,6 +249,12 @@ Moments2 ScanSplitter::rangeMoments(int first, int last) const {
   return Moments2{b.n - a.n, b.sx - a.sx, b.sy - a.sy, b.sxx - a.sxx, b.sxy - a.sxy, b.syy - a.syy};
 }
 
+double ScanSplitter::lineDistance(int first, int last, int i) const {
+  const LineFit fit = fitLine(rangeMoments(first, last));
+  const Eigen::Vector2d normal(-fit.direction.y(), fit.direction.x());
+  return std::abs(normal.dot(Eigen::Vector2d(x_[i], y_[i]) - fit.centroid));
+}
+
 bool ScanSplitter::withinTolerance(int first, int last) const {
   const LineFit fit = fitLine(rangeMoments(first, last));
   const Eigen::Vector2d normal(-fit.direction.y(), fit.direction.x());
@@ -237,6 +263,21 @@ bool ScanSplitter::withinTolerance(int first, int last) const {
     if (d > params_.threshold(r_[i])) return false;
   }
   return true;
+}
+
+Eigen::Vector2d ScanSplitter::creasePoint(const Segment& p, const Segment& q) {
+  // Where the two fitted lines meet, if they meet between the two end points;
+  // otherwise (nearly parallel lines) the end of the first segment.
+  const double den = p.direction.x() * q.direction.y() - p.direction.y() * q.direction.x();
+  const Eigen::Vector2d gap = q.start - p.end;
+  if (std::abs(den) > 1e-3) {
+    const Eigen::Vector2d w = q.start - p.start;
+    const double s = (w.x() * q.direction.y() - w.y() * q.direction.x()) / den;
+    const Eigen::Vector2d c = p.start + s * p.direction;
+    const double reach = gap.norm() + (p.end - p.start).norm() * 0.05;
+    if ((c - p.end).norm() <= reach && (c - q.start).norm() <= reach) return c;
+  }
+  return p.end;
 }
 
 void ScanSplitter::fitSegment(int first, int last, Segment& seg) const {

@@ -168,6 +168,8 @@ class ScanSplitter {
   void fitSegment(int first, int last, Segment& seg) const;
   Moments2 rangeMoments(int first, int last) const;
   bool withinTolerance(int first, int last) const;
+  double lineDistance(int first, int last, int i) const;
+  static Eigen::Vector2d creasePoint(const Segment& p, const Segment& q);  // point i to the line fitted to [first, last]
 
   SplitParams params_;
   // per-beam buffers
