@@ -109,6 +109,10 @@ ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
   y_.resize(n);
   r_.resize(n);
   valid_.resize(n);
+  // Points, and prefix sums of their moments: the moments of any run of beams in O(1).
+  prefix_.resize(n + 1);
+  Moments2 sum;  // running sums kept in registers
+  prefix_[0] = sum;
   for (int i = 0; i < n; ++i) {
     const double r = scan.ranges[i];
     const bool ok = std::isfinite(r) && r >= scan.range_min && r <= scan.range_max;
@@ -116,15 +120,10 @@ ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
     r_[i] = ok ? r : 0.0;
     x_[i] = ok ? r * cos_[i] : 0.0;
     y_[i] = ok ? r * sin_[i] : 0.0;
-    out.valid_points += ok;
+    if (ok) sum.add(x_[i], y_[i]);
+    prefix_[i + 1] = sum;
   }
-  // Prefix sums of the point moments: the moments of any run of beams in O(1).
-  prefix_.resize(n + 1);
-  prefix_[0] = Moments2();
-  for (int i = 0; i < n; ++i) {
-    prefix_[i + 1] = prefix_[i];
-    if (valid_[i]) prefix_[i + 1].add(x_[i], y_[i]);
-  }
+  out.valid_points = static_cast<int>(sum.n);
 
   // Runs of valid returns without depth jumps.
   runs_.clear();
@@ -169,17 +168,19 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
     int k = -1;
     double dmax = 0.0;
     if (b - a >= 2) {
+      // Farthest point from the chord: largest |cross product|, one division at the end.
       const double ax = x_[a], ay = y_[a];
       const double dx = x_[b] - ax, dy = y_[b] - ay;
-      const double len = std::hypot(dx, dy);
+      const double len = std::sqrt(dx * dx + dy * dy);
+      double cmax = -1.0;
       for (int i = a + 1; i < b; ++i) {
-        const double px = x_[i] - ax, py = y_[i] - ay;
-        const double d = len > 0.0 ? std::abs(px * dy - py * dx) / len : std::hypot(px, py);
-        if (d > dmax) {
-          dmax = d;
+        const double c = std::abs((x_[i] - ax) * dy - (y_[i] - ay) * dx);
+        if (c > cmax) {
+          cmax = c;
           k = i;
         }
       }
+      dmax = len > 0.0 ? cmax / len : std::hypot(x_[k] - ax, y_[k] - ay);
     }
     if (k >= 0 && dmax > params_.threshold(r_[k])) {
       stack_.emplace_back(k + 1, b);

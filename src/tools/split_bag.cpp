@@ -1,6 +1,7 @@
 // Runs the split over every LaserScan in a bag and prints counts and the
 // split time per scan. Works on any recording (urg_node's: 721 or 1081 beams).
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -16,17 +17,41 @@
 
 using namespace tilt_laser_perception;
 
+// Points, segments and edge points of one scan, for plotting.
+static bool dumpScan(const std::string& path, const core::ScanView& scan, const core::SplitResult& r) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) {
+    std::fprintf(stderr, "split_bag: cannot write %s\n", path.c_str());
+    return false;
+  }
+  std::fprintf(f, "type,index,kind,x0,y0,x1,y1\n");
+  for (std::size_t i = 0; i < scan.size; ++i) {
+    const double rg = scan.ranges[i], a = scan.angle_min + i * scan.angle_increment;
+    if (std::isfinite(rg) && rg >= scan.range_min && rg <= scan.range_max)
+      std::fprintf(f, "point,%zu,,%.4f,%.4f,,\n", i, rg * std::cos(a), rg * std::sin(a));
+  }
+  for (const auto& s : r.segments)
+    std::fprintf(f, "segment,%d,%d,%.4f,%.4f,%.4f,%.4f\n", s.first, s.last, s.start.x(), s.start.y(), s.end.x(),
+                 s.end.y());
+  for (const auto& e : r.edges)
+    std::fprintf(f, "edge,%d,%s,%.4f,%.4f,,\n", e.index, core::edgeKindName(e.kind), e.point.x(), e.point.y());
+  std::fclose(f);
+  return true;
+}
+
 static void usage() {
   std::fprintf(stderr,
-               "usage: split_bag BAG [--topic T] [--zeta Z] [--dmin D] [--fixed D]\n"
+               "usage: split_bag BAG [--topic T] [--zeta Z] [--dmin D] [--fixed D] [--dump-scan K CSV]\n"
                "  --topic T  LaserScan topic (default: every LaserScan topic in the bag)\n"
                "  --zeta Z   adaptive factor (default 0.01)\n"
                "  --dmin D   adaptive threshold floor [m] (default 0.03)\n"
-               "  --fixed D  fixed threshold d_T = D [m] instead of the adaptive one\n");
+               "  --fixed D  fixed threshold d_T = D [m] instead of the adaptive one\n"
+               "  --dump-scan K CSV  write the points, segments and edge points of scan K (0-based) to CSV\n");
 }
 
 int main(int argc, char** argv) {
-  std::string bag_path, topic;
+  std::string bag_path, topic, dump_path;
+  long dump_index = -1;
   core::SplitParams params;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -35,6 +60,7 @@ int main(int argc, char** argv) {
     else if (a == "--zeta" && v) params.zeta = std::atof(argv[++i]);
     else if (a == "--dmin" && v) params.d_min = std::atof(argv[++i]);
     else if (a == "--fixed" && v) { params.mode = core::SplitMode::Fixed; params.d_min = std::atof(argv[++i]); }
+    else if (a == "--dump-scan" && i + 2 < argc) { dump_index = std::atol(argv[++i]); dump_path = argv[++i]; }
     else if (a == "-h" || a == "--help") { usage(); return 0; }
     else if (a[0] != '-' && bag_path.empty()) bag_path = a;
     else { usage(); return 2; }
@@ -75,6 +101,7 @@ int main(int argc, char** argv) {
       continue;
     }
     sizes.insert(scan->ranges.size());
+    if (static_cast<long>(scans) - 1 == dump_index && !dumpScan(dump_path, sv, result)) return 1;
     times_us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     segments += result.segments.size();
     edges += result.edges.size();
