@@ -19,8 +19,8 @@ mkdir -p "$out"
 echo "== Figure 3: fixed d_T = 0.03 m against adaptive zeta = 0.01 (20 noise seeds)"
 "$bin/figure3" --seeds 20 --check | tee "$out/figure3.csv"
 echo
-echo "== Split of the shipped recording (stairs scene, sensor nodding 30..60 deg down)"
-"$bin/split_bag" "$here/test/data/stairs_scans.bag" --dump-scan 40 "$out/scan40.csv" | tee "$out/split_bag.txt"
+echo "== Split of the shipped recording (stairs scene, head sweeping 10..60 deg at 1 rad/s)"
+"$bin/split_bag" "$here/test/data/stairs.bag" --dump-scan 40 "$out/scan40.csv" | tee "$out/split_bag.txt"
 python3 "$here/scripts/plot_results.py" "$out/figure3.csv" "$out/scan40.csv" "$out/split.png"
 {
   echo "tilt_laser_perception main job, $(date -u +%Y-%m-%dT%H:%M:%SZ)"

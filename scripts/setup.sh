@@ -25,6 +25,7 @@ PKGS=(
   python3-sensor-msgs python3-std-msgs python3-diagnostic-msgs
   python3-yaml
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs ros-diagnostic-msgs
+  libtf2-msgs-dev ros-tf2-msgs
   # libraries
   libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev
 )

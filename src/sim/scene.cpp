@@ -221,18 +221,20 @@ Scene Scene::load(const std::string& path) {
   return parse(ss.str(), path);
 }
 
-std::string sceneDirectory() {
+std::string configDirectory() {
   namespace fs = std::filesystem;
-  if (const char* env = std::getenv("TLP_SCENE_DIR")) return env;
+  if (const char* env = std::getenv("TLP_CONFIG_DIR")) return env;
 #ifdef TLP_INSTALL_SHARE_DIR
-  if (fs::is_directory(TLP_INSTALL_SHARE_DIR "/config/scenes")) return TLP_INSTALL_SHARE_DIR "/config/scenes";
+  if (fs::is_directory(TLP_INSTALL_SHARE_DIR "/config/scenes")) return TLP_INSTALL_SHARE_DIR "/config";
 #endif
 #ifdef TLP_SOURCE_DIR
-  return TLP_SOURCE_DIR "/config/scenes";
+  return TLP_SOURCE_DIR "/config";
 #else
-  return "config/scenes";
+  return "config";
 #endif
 }
+
+std::string sceneDirectory() { return configDirectory() + "/scenes"; }
 
 Scene loadScene(const std::string& name_or_path) {
   namespace fs = std::filesystem;

@@ -78,8 +78,10 @@ class Scene {
   std::vector<std::vector<unsigned char>> crease_;
 };
 
-/// Where scene files live: $TLP_SCENE_DIR, else the installed share folder,
-/// else the source tree's config/scenes.
+/// The package's config folder: $TLP_CONFIG_DIR, else the installed share
+/// folder's config, else the source tree's config.
+std::string configDirectory();
+/// Where scene files live: configDirectory()/scenes.
 std::string sceneDirectory();
 /// Loads a scene by name (NAME -> sceneDirectory()/NAME.yaml) or by path.
 Scene loadScene(const std::string& name_or_path);

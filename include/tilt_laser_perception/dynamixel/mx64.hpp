@@ -1,0 +1,68 @@
+/**
+ * @file mx64.hpp
+ * @brief MX-64 control tables of Protocol 1.0 and 2.0 (firmware "MX(2.0)") and
+ *        conversions of raw units to SI. ROS-free.
+ *
+ * Facts used (ROBOTIS MX-64 e-manual): 4096 position steps per turn, 2048 at
+ * the centre; 1.0 speed unit 0.114 rpm (bit 10 of present speed/load: the CW
+ * direction), load 0.1 % units, current 4.5 mA * (raw - 2048); 2.0 velocity
+ * unit 0.229 rpm (signed 32 bit), profile acceleration 214.577 rev/min^2,
+ * current 3.36 mA (signed 16 bit); voltage 0.1 V; temperature 1 degree C.
+ */
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "tilt_laser_perception/dynamixel/protocol.hpp"
+
+namespace tilt_laser_perception {
+namespace dynamixel {
+
+/// Register address and size.
+struct Reg {
+  std::uint16_t addr = 0;
+  std::uint8_t size = 0;
+  bool valid() const { return size > 0; }
+};
+
+/// The MX-64 registers the package uses, for one protocol.
+struct Mx64Table {
+  Reg model_number, firmware, id, baud_rate, return_delay, status_return_level, torque_enable, led,
+      goal_position, moving_speed /*1.0*/, goal_acceleration /*1.0*/, profile_acceleration /*2.0*/,
+      profile_velocity /*2.0*/, present_position, present_speed, present_load /*1.0*/, present_current,
+      present_voltage, present_temperature, moving, hardware_error /*2.0*/, max_torque /*1.0*/;
+  std::uint16_t model = 0;   ///< model number the servo reports
+  std::uint16_t size = 0;    ///< bytes of control table the emulator keeps
+};
+
+/// The table of a protocol.
+const Mx64Table& mx64Table(Protocol p);
+
+constexpr double kStepsPerRev = 4096.0;
+constexpr int kCenter = 2048;
+constexpr double kRadPerStep = 2.0 * M_PI / kStepsPerRev;
+
+/// Raw position to angle [rad] (0 at 2048).
+inline double positionToRad(std::int32_t raw) { return (raw - kCenter) * kRadPerStep; }
+/// Angle [rad] to raw position (rounded).
+inline std::int32_t radToPosition(double rad) { return static_cast<std::int32_t>(std::lround(rad / kRadPerStep)) + kCenter; }
+
+/// rpm per raw velocity unit.
+inline double velocityUnitRpm(Protocol p) { return p == Protocol::V1 ? 0.114 : 0.229; }
+/// Raw present speed/velocity to rad/s (1.0: bit 10 = CW = negative; 2.0: signed 32 bit).
+double velocityToRadPerSec(Protocol p, std::uint32_t raw);
+/// Speed limit [rad/s] to the raw moving speed (1.0) or profile velocity (2.0), at least 1.
+std::uint32_t radPerSecToVelocity(Protocol p, double rad_per_s);
+/// Acceleration [rad/s^2] to raw goal acceleration (1.0, 8.583 deg/s^2 units, 0..254)
+/// or profile acceleration (2.0, 214.577 rev/min^2 units).
+std::uint32_t radPerSec2ToAcceleration(Protocol p, double rad_per_s2);
+/// Raw acceleration to rad/s^2 (0 means no limit: returns +inf).
+double accelerationToRadPerSec2(Protocol p, std::uint32_t raw);
+/// 1.0 present load (0.1 % of max torque, bit 10 CW) to a signed fraction [-1, 1].
+double loadToFraction(std::uint32_t raw);
+/// 2.0 present current (signed 16 bit, 3.36 mA) or 1.0 current (4.5 mA * (raw - 2048)) to A.
+double currentToAmp(Protocol p, std::uint32_t raw);
+
+}  // namespace dynamixel
+}  // namespace tilt_laser_perception

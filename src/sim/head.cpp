@@ -1,0 +1,191 @@
+#include "tilt_laser_perception/sim/head.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <yaml-cpp/yaml.h>
+
+namespace tilt_laser_perception {
+namespace sim {
+
+ServoModel::ServoModel(double initial_position, double t0) : t_(t0), pos_(initial_position), goal_(initial_position) {
+  history_.emplace_back(t0, initial_position);
+}
+
+void ServoModel::advance(double t) {
+  constexpr double dt_max = 0.001;
+  while (t_ < t) {
+    const double dt = std::min(dt_max, t - t_);
+    if (torque_) {
+      const double d = goal_ - pos_;
+      if (std::abs(d) < 1e-6 && std::abs(vel_) < amax_ * dt) {
+        pos_ = goal_;
+        vel_ = 0.0;
+      } else {
+        // Fastest speed from which the goal can still be reached with the acceleration limit.
+        const double v_des = std::copysign(std::min(vmax_, std::sqrt(2.0 * amax_ * std::abs(d))), d);
+        const double dv = std::clamp(v_des - vel_, -amax_ * dt, amax_ * dt);
+        const double v_new = vel_ + dv;
+        const double step = 0.5 * (vel_ + v_new) * dt;
+        if ((d > 0 && step >= d) || (d < 0 && step <= d)) {  // arrives within this step
+          pos_ = goal_;
+          vel_ = 0.0;
+        } else {
+          pos_ += step;
+          vel_ = v_new;
+        }
+      }
+    } else {
+      const double dv = std::clamp(-vel_, -amax_ * dt, amax_ * dt);
+      pos_ += (vel_ + 0.5 * dv) * dt;
+      vel_ += dv;
+    }
+    t_ += dt;
+    history_.emplace_back(t_, pos_);
+  }
+  while (history_.size() > 2 && history_.front().first < t_ - 5.0) history_.pop_front();
+}
+
+void ServoModel::setGoal(double t, double goal) {
+  std::lock_guard<std::mutex> l(mutex_);
+  advance(t);
+  goal_ = goal;
+}
+
+void ServoModel::setVelocityLimit(double t, double v) {
+  std::lock_guard<std::mutex> l(mutex_);
+  advance(t);
+  vmax_ = (v <= 0.0 || v > kMaxVelocity) ? kMaxVelocity : v;
+}
+
+void ServoModel::setAccelerationLimit(double t, double a) {
+  std::lock_guard<std::mutex> l(mutex_);
+  advance(t);
+  amax_ = (a <= 0.0 || !std::isfinite(a) || a > 200.0) ? 200.0 : a;
+}
+
+void ServoModel::setTorque(double t, bool on) {
+  std::lock_guard<std::mutex> l(mutex_);
+  advance(t);
+  torque_ = on;
+  if (on) goal_ = pos_;
+}
+
+double ServoModel::velocityLimit() const {
+  std::lock_guard<std::mutex> l(mutex_);
+  return vmax_;
+}
+
+ServoModel::State ServoModel::state(double t) {
+  std::lock_guard<std::mutex> l(mutex_);
+  advance(t);
+  State s;
+  s.position = pos_;
+  s.velocity = vel_;
+  s.goal = goal_;
+  s.moving = std::abs(vel_) > 1e-3 || (torque_ && std::abs(goal_ - pos_) > 1e-4);
+  s.torque = torque_;
+  if (t < t_) s.position = historyAt(t);
+  return s;
+}
+
+double ServoModel::positionAt(double t) {
+  std::lock_guard<std::mutex> l(mutex_);
+  if (t >= t_) {
+    advance(t);
+    return pos_;
+  }
+  return historyAt(t);
+}
+
+double ServoModel::historyAt(double t) const {
+  if (t <= history_.front().first) return history_.front().second;
+  // Samples are 1 ms apart: find the pair around t.
+  auto it = std::lower_bound(history_.begin(), history_.end(), t,
+                             [](const std::pair<double, double>& s, double v) { return s.first < v; });
+  if (it == history_.begin()) return it->second;
+  const auto& b = *it;
+  const auto& a = *(it - 1);
+  const double w = (t - a.first) / (b.first - a.first);
+  return a.second + w * (b.second - a.second);
+}
+
+Eigen::Isometry3d HeadGeometry::laserPose(double tilt) const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = axis_origin;
+  T.rotate(Eigen::AngleAxisd(tilt + tilt_offset, Eigen::Vector3d::UnitY()));
+  T.translate(laser_offset);
+  return T;
+}
+
+HeadGeometry HeadGeometry::load(const std::string& path) {
+  HeadGeometry g;
+  YAML::Node n;
+  try {
+    n = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error("cannot read head geometry " + path + ": " + e.what());
+  }
+  const auto vec3 = [&](const char* key, Eigen::Vector3d& v) {
+    if (!n[key]) return;
+    if (!n[key].IsSequence() || n[key].size() != 3) throw std::runtime_error(path + ": " + key + " needs 3 numbers");
+    v = Eigen::Vector3d(n[key][0].as<double>(), n[key][1].as<double>(), n[key][2].as<double>());
+  };
+  vec3("axis_origin", g.axis_origin);
+  vec3("laser_offset", g.laser_offset);
+  if (n["tilt_offset_deg"]) g.tilt_offset = n["tilt_offset_deg"].as<double>() * M_PI / 180.0;
+  return g;
+}
+
+bool SweepController::update(double t) {
+  const ServoModel::State s = servo_.state(t);
+  if (!started_) {
+    started_ = true;
+    servo_.setVelocityLimit(t, profile_.speed);
+    servo_.setAccelerationLimit(t, profile_.acceleration);
+    up_ = s.position < 0.5 * (profile_.min_angle + profile_.max_angle);
+    servo_.setGoal(t, up_ ? profile_.max_angle : profile_.min_angle);
+    return false;
+  }
+  const double target = up_ ? profile_.max_angle : profile_.min_angle;
+  if (std::abs(s.position - target) < 1e-4 && !s.moving) {
+    up_ = !up_;
+    servo_.setGoal(t, up_ ? profile_.max_angle : profile_.min_angle);
+    return true;
+  }
+  return false;
+}
+
+HeadSimulator::HeadSimulator(const Scene& scene, const HeadGeometry& head, ServoModel& servo,
+                             const NoiseParams& noise, std::uint64_t seed, const LidarModel& model)
+    : scene_(scene), head_(head), servo_(servo), lidar_(scene, model, noise, seed) {}
+
+void HeadSimulator::scan(double t0, HeadScan& out) {
+  const LidarModel& m = lidar_.model();
+  out.tilt.resize(m.beams);
+  for (int i = 0; i < m.beams; ++i) out.tilt[i] = static_cast<float>(servo_.positionAt(t0 + m.beamTime(i)));
+  const PoseFunction pose = [&](double t) {
+    const int i = static_cast<int>(std::lround((t - t0) / m.timeIncrement()));
+    const double tilt = (i >= 0 && i < m.beams) ? out.tilt[i] : servo_.positionAt(t);
+    return head_.laserPose(tilt);
+  };
+  lidar_.scan(t0, pose, out.scan);
+}
+
+std::vector<float> trueHeightMap(const Scene& scene, double ox, double oy, double r, int width, int height) {
+  std::vector<float> h(static_cast<std::size_t>(width) * height, std::numeric_limits<float>::quiet_NaN());
+  const Eigen::Vector3d down(0, 0, -1);
+  for (int iy = 0; iy < height; ++iy) {
+    for (int ix = 0; ix < width; ++ix) {
+      const Eigen::Vector3d top(ox + (ix + 0.5) * r, oy + (iy + 0.5) * r, 100.0);
+      Hit hit;
+      if (scene.raycast(top, down, 200.0, hit)) h[static_cast<std::size_t>(iy) * width + ix] = static_cast<float>(100.0 - hit.t);
+    }
+  }
+  return h;
+}
+
+}  // namespace sim
+}  // namespace tilt_laser_perception

@@ -1,0 +1,110 @@
+// The simulated head: servo motion, mounting, per-beam skew of scans taken
+// while tilting, sweep control and the true height map.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "tilt_laser_perception/sim/head.hpp"
+
+using namespace tilt_laser_perception::sim;
+
+TEST(ServoModel, TrapezoidalMotionToTheGoal) {
+  ServoModel s(0.0, 0.0);
+  s.setVelocityLimit(0.0, 2.0);
+  s.setAccelerationLimit(0.0, 20.0);
+  s.setGoal(0.0, 1.0);
+  // 0.1 s to reach 2 rad/s (0.1 rad), cruise, 0.1 s braking (0.1 rad): 0.6 s in all.
+  EXPECT_NEAR(s.state(0.1).velocity, 2.0, 0.02);
+  EXPECT_NEAR(s.state(0.35).position, 0.1 + 2.0 * 0.25, 0.01);
+  double vmax = 0.0;
+  for (double t = 0.35; t < 1.0; t += 0.01) vmax = std::max(vmax, std::abs(s.state(t).velocity));
+  EXPECT_LE(vmax, 2.0 + 1e-9);
+  const auto end = s.state(1.0);
+  EXPECT_NEAR(end.position, 1.0, 1e-6);
+  EXPECT_FALSE(end.moving);
+  // The history answers for past times.
+  EXPECT_NEAR(s.positionAt(0.35), 0.6, 0.01);
+  EXPECT_NEAR(s.positionAt(0.05), 0.5 * 20.0 * 0.05 * 0.05, 0.002);
+}
+
+TEST(ServoModel, TorqueOffStopsFollowingTheGoal) {
+  ServoModel s(0.0, 0.0);
+  s.setTorque(0.0, false);
+  s.setGoal(0.0, 1.0);
+  EXPECT_NEAR(s.state(1.0).position, 0.0, 1e-9);
+}
+
+TEST(HeadGeometry, LaserPoseFollowsTheTilt) {
+  HeadGeometry g;
+  const Eigen::Isometry3d level = g.laserPose(0.0);
+  EXPECT_TRUE(level.translation().isApprox(Eigen::Vector3d(0.05, 0.0, 1.46)));
+  const Eigen::Isometry3d down = g.laserPose(M_PI / 2);
+  // Pitched 90 degrees down: the laser's x axis points at the floor, its origin 5 cm below the axis.
+  EXPECT_TRUE((down.linear() * Eigen::Vector3d::UnitX()).isApprox(Eigen::Vector3d(0, 0, -1), 1e-12));
+  EXPECT_TRUE(down.translation().isApprox(Eigen::Vector3d(0.06, 0.0, 1.35), 1e-12));
+}
+
+TEST(HeadSimulator, ScanTakenWhileTiltingIsSkewedBeamByBeam) {
+  const Scene floor = Scene::parse("objects:\n  - {type: floor, center: [0, 0], size: [40, 40]}\n");
+  HeadGeometry g;
+  ServoModel servo(0.5, 0.0);  // 28.6 degrees down
+  servo.setVelocityLimit(0.0, 1.0);
+  servo.setAccelerationLimit(0.0, 200.0);
+  servo.setGoal(0.0, 1.2);
+  NoiseParams exact;
+  exact.mode = NoiseMode::None;
+  exact.mixed_pixel_probability = 0.0;
+  HeadSimulator sim(floor, g, servo, exact, 1);
+  const double t0 = 0.1;  // moving at 1 rad/s by then
+  servo.state(t0 + 0.03);
+  HeadScan hs;
+  sim.scan(t0, hs);
+  const LidarModel m;
+  // Beam i's tilt is the joint angle at its own time: 1 rad/s * 18.75 ms = 1.07 deg across the scan.
+  EXPECT_NEAR(hs.tilt[1080] - hs.tilt[0], 1.0 * m.beamTime(1080), 1e-4);
+  double max_skew = 0.0;
+  for (int i : {400, 540, 700}) {
+    const auto expected = [&](double tilt) {
+      const Eigen::Isometry3d T = g.laserPose(tilt);
+      const Eigen::Vector3d d = T.linear() * Eigen::Vector3d(std::cos(m.angle(i)), std::sin(m.angle(i)), 0.0);
+      return -T.translation().z() / d.z();
+    };
+    EXPECT_NEAR(hs.scan.true_ranges[i], expected(servo.positionAt(t0 + m.beamTime(i))), 1e-4) << i;
+    max_skew = std::max(max_skew, std::abs(hs.scan.true_ranges[i] - expected(hs.tilt[0])));
+  }
+  // One angle for the whole scan would be off by more than 2 cm.
+  EXPECT_GT(max_skew, 0.02);
+}
+
+TEST(SweepController, SweepsBetweenTheLimits) {
+  ServoModel servo(0.2, 0.0);
+  SweepProfile p;
+  p.min_angle = 0.2;
+  p.max_angle = 0.8;
+  p.speed = 1.0;
+  SweepController sweep(servo, p);
+  int reversals = 0;
+  double lo = 1e9, hi = -1e9;
+  for (double t = 0.0; t < 3.0; t += 0.001) {
+    reversals += sweep.update(t);
+    const double x = servo.state(t).position;
+    lo = std::min(lo, x);
+    hi = std::max(hi, x);
+  }
+  // 0.6 rad at 1 rad/s, plus acceleration: one way takes about 0.65 s.
+  EXPECT_GE(reversals, 3);
+  EXPECT_LE(reversals, 5);
+  EXPECT_NEAR(lo, 0.2, 1e-6);
+  EXPECT_NEAR(hi, 0.8, 1e-6);
+}
+
+TEST(TrueHeightMap, StairsTreadsAndFloor) {
+  const Scene s = loadScene("stairs");
+  // 1 cm cells from (0, -0.5): x = 1.0 m is floor, x = 1.35 m is tread 1 (0.15 m), x = 1.95 m tread 3 (0.45 m).
+  const auto h = trueHeightMap(s, 0.0, -0.5, 0.01, 300, 100);
+  const auto at = [&](double x, double y) { return h[static_cast<int>((y + 0.5) / 0.01) * 300 + static_cast<int>(x / 0.01)]; };
+  EXPECT_NEAR(at(0.5, 0.0), 0.0, 1e-6);
+  EXPECT_NEAR(at(1.35, 0.0), 0.15, 1e-6);
+  EXPECT_NEAR(at(1.95, 0.0), 0.45, 1e-6);
+  EXPECT_NEAR(at(1.0, 0.45), 0.0, 1e-6);   // beside the box (box spans y 0.75..1.15)
+}
