@@ -407,3 +407,44 @@ TEST_P(Mx64EmulatorTest, FaultsCanBeTriggeredAndSeen) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Protocols, Mx64EmulatorTest, ::testing::Values(1, 2));
+
+TEST_P(Mx64EmulatorTest, SyncWriteAndBulkRead) {
+  const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
+  const bool v1 = proto == dynamixel::Protocol::V1;
+  const auto& tab = dynamixel::mx64Table(proto);
+  ServoModel servo(0.0, hostNow());
+  Mx64Options opt;
+  opt.protocol = proto;
+  Mx64Emulator emu(servo, opt);
+  emu.start();
+  Port port(emu.devicePath(), proto);
+  ASSERT_TRUE(port.ok());
+  // Sync write of torque enable to IDs 1 and 7 (7 is not there): no status packet.
+  std::vector<std::uint8_t> p = port.addr(tab.torque_enable.addr);
+  dynamixel::putLE(p, 1, v1 ? 1 : 2);
+  p.insert(p.end(), {1, 1, 7, 1});
+  EXPECT_FALSE(port.transact(dynamixel::inst::kSyncWrite, p, 0.1).has_value());
+  EXPECT_EQ(emu.reg(tab.torque_enable), 1u);
+  // Bulk read of the present position.
+  std::vector<std::uint8_t> b;
+  if (v1) {
+    b = {0x00, tab.present_position.size, 1, static_cast<std::uint8_t>(tab.present_position.addr)};
+  } else {
+    b = {1};
+    dynamixel::putLE(b, tab.present_position.addr, 2);
+    dynamixel::putLE(b, tab.present_position.size, 2);
+  }
+  auto s = port.transact(dynamixel::inst::kBulkRead, b);
+  ASSERT_TRUE(s.has_value());
+  ASSERT_EQ(s->params.size(), tab.present_position.size);
+  EXPECT_EQ(dynamixel::getLE(s->params.data(), tab.present_position.size), 2048u);
+  if (!v1) {  // sync read of present position and velocity
+    std::vector<std::uint8_t> r;
+    dynamixel::putLE(r, 128, 2);
+    dynamixel::putLE(r, 8, 2);
+    r.push_back(1);
+    auto sr = port.transact(dynamixel::inst::kSyncRead, r);
+    ASSERT_TRUE(sr.has_value());
+    EXPECT_EQ(sr->params.size(), 8u);
+  }
+}
