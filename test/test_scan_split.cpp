@@ -327,3 +327,34 @@ TEST(SplitParams, Validation) {
   p.jump_min = std::nan("");
   EXPECT_NE(p.validate().find("jump_min"), std::string::npos);
 }
+
+#include "tilt_laser_perception/core/tilt_profile.hpp"
+
+TEST(TiltProfile, StepAndHoldStopsAtEveryStep) {
+  TiltProfileParams p;
+  p.mode = TiltProfileParams::Mode::StepHold;
+  p.min_angle = 0.0;
+  p.max_angle = 0.1;
+  p.step = 0.025;
+  p.hold_time = 0.03;
+  ASSERT_EQ(p.validate(), "");
+  TiltProfile prof(p);
+  TiltCommand cmd;
+  Sweep sweep;
+  bool ended = false;
+  double pos = 0.0;
+  std::vector<double> goals;
+  int sweeps = 0;
+  for (double t = 0.0; t < 1.0; t += 0.001) {
+    if (prof.update(t, pos, cmd, sweep, &ended)) goals.push_back(cmd.goal);
+    if (ended) ++sweeps;
+    pos = prof.goal();  // an ideal servo: there at once
+  }
+  // min, then 0.025 ... 0.1 up, then back down; each goal held 30 ms.
+  ASSERT_GE(goals.size(), 9u);
+  const std::vector<double> expected{0.0, 0.025, 0.05, 0.075, 0.1, 0.075, 0.05, 0.025, 0.0};
+  for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_NEAR(goals[i], expected[i], 1e-12) << i;
+  EXPECT_GE(sweeps, 2);
+  p.max_angle = -1.0;
+  EXPECT_NE(p.validate(), "");
+}

@@ -139,23 +139,21 @@ HeadGeometry HeadGeometry::load(const std::string& path) {
   return g;
 }
 
-bool SweepController::update(double t) {
-  const ServoModel::State s = servo_.state(t);
-  if (!started_) {
-    started_ = true;
-    servo_.setVelocityLimit(t, profile_.speed);
-    servo_.setAccelerationLimit(t, profile_.acceleration);
-    up_ = s.position < 0.5 * (profile_.min_angle + profile_.max_angle);
-    servo_.setGoal(t, up_ ? profile_.max_angle : profile_.min_angle);
-    return false;
+SweepController::SweepController(ServoModel& servo, const core::TiltProfileParams& params)
+    : servo_(servo), profile_(params) {
+  servo_.setAccelerationLimit(0.0, params.acceleration);
+}
+
+bool SweepController::update(double t, core::Sweep* sweep) {
+  core::TiltCommand cmd;
+  core::Sweep done;
+  bool ended = false;
+  if (profile_.update(t, servo_.state(t).position, cmd, done, &ended)) {
+    servo_.setVelocityLimit(t, cmd.velocity);
+    servo_.setGoal(t, cmd.goal);
   }
-  const double target = up_ ? profile_.max_angle : profile_.min_angle;
-  if (std::abs(s.position - target) < 1e-4 && !s.moving) {
-    up_ = !up_;
-    servo_.setGoal(t, up_ ? profile_.max_angle : profile_.min_angle);
-    return true;
-  }
-  return false;
+  if (ended && sweep) *sweep = done;
+  return ended;
 }
 
 HeadSimulator::HeadSimulator(const Scene& scene, const HeadGeometry& head, ServoModel& servo,

@@ -82,7 +82,7 @@ int main(int argc, char** argv) {
         sim::HeadGeometry::load(head_path.empty() ? sim::configDirectory() + "/head.yaml" : head_path);
     const double deg = M_PI / 180.0;
     sim::ServoModel servo(min_deg * deg, 0.0);
-    sim::SweepProfile profile;
+    core::TiltProfileParams profile;
     profile.min_angle = min_deg * deg;
     profile.max_angle = max_deg * deg;
     profile.speed = speed;

@@ -14,6 +14,7 @@
 
 #include <Eigen/Geometry>
 
+#include "tilt_laser_perception/core/tilt_profile.hpp"
 #include "tilt_laser_perception/sim/lidar_sim.hpp"
 
 namespace tilt_laser_perception {
@@ -74,28 +75,17 @@ struct HeadGeometry {
   static HeadGeometry load(const std::string& path);
 };
 
-/// Tilt sweep: a triangle between min and max at a speed (continuous), or
-/// step-and-hold (move, then hold for one scan at each step).
-struct SweepProfile {
-  double min_angle = 10.0 * M_PI / 180.0;  ///< [rad]
-  double max_angle = 60.0 * M_PI / 180.0;  ///< [rad]
-  double speed = 1.0;                      ///< [rad/s]
-  double acceleration = 20.0;              ///< [rad/s^2]
-};
-
-/// Drives a servo model through a triangle sweep: commands the far end, and
-/// turns when it is reached. Call update() often (every few ms of sim time).
+/// Drives a servo model through the tilt profile the driver uses (sweep or
+/// step-and-hold). Call update() often (every millisecond of sim time).
 class SweepController {
  public:
-  SweepController(ServoModel& servo, const SweepProfile& profile) : servo_(servo), profile_(profile) {}
-  /// Commands the next end when the current one is reached; returns true when the direction reversed.
-  bool update(double t);
-  bool goingUp() const { return up_; }
+  SweepController(ServoModel& servo, const core::TiltProfileParams& params);
+  /// Sends the profile's next goal when due; returns true when a sweep ended (its data in *sweep).
+  bool update(double t, core::Sweep* sweep = nullptr);
 
  private:
   ServoModel& servo_;
-  SweepProfile profile_;
-  bool started_ = false, up_ = true;
+  core::TiltProfile profile_;
 };
 
 /// A scan of the head simulator: the simulated scan plus the joint angle at every beam.
