@@ -66,7 +66,7 @@ double UtmEmulator::sensorMillis(double host_t) const {
 
 double UtmEmulator::scanStart(long k) const {
   std::lock_guard<std::mutex> l(clock_mutex_);
-  return boot_time_ + k * kPeriod / (1.0 + options_.drift_ppm * 1e-6);
+  return boot_time_ + k * kPeriod * (1.0 + options_.motor_ppm * 1e-6) / (1.0 + options_.drift_ppm * 1e-6);
 }
 
 void UtmEmulator::start() {

@@ -29,7 +29,8 @@ void usage() {
   std::fprintf(stderr,
       "usage: tilt_laser_sim --scene NAME [--protocol 1|2] [--seed N] [--port P] [--truth FILE]\n"
       "                      [--fault SPEC]... [--servo-link PATH] [--id N] [--drift PPM]\n"
-      "                      [--clock-offset MS] [--noise datasheet|percent|none] [--initial-tilt DEG]\n"
+      "                      [--clock-offset MS] [--motor-ppm PPM] [--noise datasheet|percent|none]\n"
+      "                      [--initial-tilt DEG]\n"
       "                      [--head FILE] [--duration S]\n"
       "Prints the laser's address (host:port) and the servo's device path, one per line.\n"
       "Fault SPEC is NAME@T[:ARG], T seconds after start:\n"
@@ -82,6 +83,7 @@ int main(int argc, char** argv) {
     else if (a == "--id" && v) id = std::atoi(argv[++i]);
     else if (a == "--drift" && v) utm_opt.drift_ppm = std::atof(argv[++i]);
     else if (a == "--clock-offset" && v) utm_opt.clock_offset_ms = std::atof(argv[++i]);
+    else if (a == "--motor-ppm" && v) utm_opt.motor_ppm = std::atof(argv[++i]);
     else if (a == "--initial-tilt" && v) initial_tilt_deg = std::atof(argv[++i]);
     else if (a == "--head" && v) head_path = argv[++i];
     else if (a == "--duration" && v) duration = std::atof(argv[++i]);

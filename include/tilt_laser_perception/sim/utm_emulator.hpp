@@ -33,6 +33,10 @@ struct UtmOptions {
   std::uint16_t port = 0;            ///< 0: any free port (see UtmEmulator::port())
   double clock_offset_ms = 123456.0; ///< sensor clock at power-up [ms]
   double drift_ppm = 0.0;            ///< sensor clock rate error [1e-6]
+  /// Motor speed error against the sensor's own clock [1e-6]: the revolution is
+  /// regulated to 2400 rpm, not locked to the time stamp counter, so it is not
+  /// a whole number of milliseconds and the stamps' floors walk across the millisecond.
+  double motor_ppm = 400.0;
   double reboot_time = 0.5;          ///< the sensor is unreachable this long after RB [s]
   std::string serial = "H1102345";
 };
