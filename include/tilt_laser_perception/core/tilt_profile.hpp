@@ -52,6 +52,9 @@ class TiltProfile {
 
   /// Forgets the sweep in progress (after a fault): the next sweep starts at the next end reached.
   void restart();
+  /// A sweep has begun (at a reversal) and not yet ended; it began at sweepStart() [s].
+  bool inSweep() const { return in_sweep_; }
+  double sweepStart() const { return sweep_start_t_; }
   /// The goal last commanded.
   double goal() const { return goal_; }
   const TiltProfileParams& params() const { return p_; }

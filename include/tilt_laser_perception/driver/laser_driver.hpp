@@ -1,0 +1,69 @@
+/**
+ * @file laser_driver.hpp
+ * @brief The laser loop: keeps a SCIP 2.0 client streaming, hands every good
+ *        scan to a callback, and reconnects with backoff when the sensor is
+ *        refused, lost, silent or rebooted. ROS-free; one thread of its own.
+ */
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "tilt_laser_perception/scip/client.hpp"
+
+namespace tilt_laser_perception {
+namespace driver {
+
+struct LaserDriverOptions {
+  std::string host = "192.168.0.10";
+  int port = 10940;
+  std::string serial_device;  ///< non-empty: the USB UTM-30LX on this serial device instead of TCP
+  scip::UtmClientOptions client;
+  double backoff_min = 0.2, backoff_max = 5.0;  ///< reconnect waits [s]
+};
+
+/// A snapshot for diagnostics.
+struct LaserStatus {
+  bool streaming = false;
+  scip::SensorInfo info;
+  scip::UtmCounters counters;
+  double scan_rate = 0.0;      ///< scans per second over the last second [Hz]
+  double stamp_delay = 0.0;    ///< arrival minus stamp of the last scan [s]
+  double clock_offset = 0.0;   ///< host minus sensor time [s]
+  double clock_drift_ppm = 0.0;
+  std::size_t clock_samples = 0;
+  unsigned long reconnects = 0;
+  std::string last_error, endpoint;
+};
+
+class LaserDriver {
+ public:
+  enum class Level { Info, Warn, Error };
+  using ScanCallback = std::function<void(const scip::UtmScan&)>;
+  using LogCallback = std::function<void(Level, const std::string&)>;
+
+  LaserDriver(const LaserDriverOptions& options, ScanCallback on_scan, LogCallback log);
+  ~LaserDriver();
+  void start();
+  /// Stops the thread (joins within about 0.2 s) and the sensor's stream.
+  void stop();
+  LaserStatus status() const;
+
+ private:
+  void run();
+  LaserDriverOptions opt_;
+  ScanCallback on_scan_;
+  LogCallback log_;
+  std::unique_ptr<scip::UtmClient> client_;
+  std::thread thread_;
+  std::atomic<bool> running_{false};
+  mutable std::mutex status_mutex_;
+  LaserStatus status_;
+};
+
+}  // namespace driver
+}  // namespace tilt_laser_perception

@@ -1,0 +1,296 @@
+#include "tilt_laser_perception/driver/servo_driver.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "tilt_laser_perception/scip/client.hpp"  // wallNow()
+
+namespace tilt_laser_perception {
+namespace driver {
+
+using dynamixel::Protocol;
+using dynamixel::TxResult;
+
+ServoDriver::ServoDriver(const ServoDriverOptions& options, JointCallback on_joint, SweepCallback on_sweep,
+                         LogCallback log)
+    : opt_(options),
+      on_joint_(std::move(on_joint)),
+      on_sweep_(std::move(on_sweep)),
+      log_(std::move(log)),
+      bus_(port_, options.protocol),
+      profile_(options.profile) {}
+
+ServoDriver::~ServoDriver() { stop(); }
+
+void ServoDriver::start() {
+  if (running_) return;
+  running_ = true;
+  thread_ = std::thread([this] { run(); });
+}
+
+void ServoDriver::stop() {
+  if (!running_) return;
+  running_ = false;
+  if (thread_.joinable()) thread_.join();
+  if (port_.isOpen()) {
+    std::uint8_t e = 0;
+    bus_.writeReg(opt_.id, dynamixel::mx64Table(opt_.protocol).torque_enable, 0, &e, true, opt_.timeout);
+    port_.close();
+  }
+}
+
+ServoStatus ServoDriver::status() const {
+  std::lock_guard<std::mutex> l(status_mutex_);
+  ServoStatus s = status_;
+  s.bus = bus_.counters();
+  return s;
+}
+
+void ServoDriver::sleepUntil(double t) {
+  while (running_) {
+    const double left = t - dynamixel::monotonicNow();
+    if (left <= 0) return;
+    std::this_thread::sleep_for(std::chrono::duration<double>(std::min(left, 0.05)));
+  }
+}
+
+void ServoDriver::dropSweep(const std::string& why) {
+  if (profile_.inSweep()) {
+    core::Sweep s;
+    s.start_time = profile_.sweepStart();
+    s.end_time = scip::wallNow();
+    if (on_sweep_) on_sweep_(s, false);
+    std::lock_guard<std::mutex> l(status_mutex_);
+    ++status_.aborted_sweeps;
+    if (log_) log_(Level::Warn, "tilt sweep in progress dropped: " + why);
+  }
+  profile_.restart();
+}
+
+bool ServoDriver::openAndConfigure() {
+  const auto& tab = dynamixel::mx64Table(opt_.protocol);
+  std::string err;
+  if (!port_.open(opt_.device, opt_.baud, opt_.low_latency, err)) {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    status_.last_error = err;
+    return false;
+  }
+  bus_.resetParser();
+  std::uint16_t model = 0;
+  std::uint8_t e = 0;
+  TxResult r = TxResult::Timeout;
+  for (int i = 0; i < 3 && r != TxResult::Ok; ++i) r = bus_.ping(opt_.id, &model, &e, opt_.timeout);
+  if (r != TxResult::Ok) {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    status_.last_error = "servo " + std::to_string(opt_.id) + " on " + opt_.device + " does not answer ping: " +
+                         dynamixel::txResultName(r);
+    port_.close();
+    return false;
+  }
+  if (model != tab.model && log_)
+    log_(Level::Warn, "servo model " + std::to_string(model) + " is not an MX-64 (" + std::to_string(tab.model) +
+                          "): the control table may differ");
+  // Restore the configuration: prompt replies, limits, torque.
+  bool ok = bus_.writeReg(opt_.id, tab.return_delay, 0, &e, true, opt_.timeout) == TxResult::Ok;
+  ok = ok && bus_.writeReg(opt_.id, tab.status_return_level, 2, &e, true, opt_.timeout) == TxResult::Ok;
+  ok = ok && bus_.writeReg(opt_.id, tab.torque_enable, 0, &e, true, opt_.timeout) == TxResult::Ok;
+  if (opt_.protocol == Protocol::V1) {
+    ok = ok && bus_.writeReg(opt_.id, tab.goal_acceleration,
+                             dynamixel::radPerSec2ToAcceleration(opt_.protocol, opt_.profile.acceleration), &e, true,
+                             opt_.timeout) == TxResult::Ok;
+  } else {
+    ok = ok && bus_.writeReg(opt_.id, tab.profile_acceleration,
+                             dynamixel::radPerSec2ToAcceleration(opt_.protocol, opt_.profile.acceleration), &e, true,
+                             opt_.timeout) == TxResult::Ok;
+  }
+  ok = ok && bus_.writeReg(opt_.id, tab.torque_enable, 1, &e, true, opt_.timeout) == TxResult::Ok;
+  if (!ok) {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    status_.last_error = "configuring the servo failed";
+    port_.close();
+    return false;
+  }
+  last_velocity_cmd_ = -1.0;
+  {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    status_.connected = true;
+    status_.model = model;
+    status_.last_error.clear();
+  }
+  if (log_)
+    log_(Level::Info, "servo " + std::to_string(opt_.id) + " (model " + std::to_string(model) + ", protocol " +
+                          std::to_string(static_cast<int>(opt_.protocol)) + ".0) ready on " + opt_.device);
+  return true;
+}
+
+dynamixel::TxResult ServoDriver::readState(JointSample& s, std::uint8_t& error_byte) {
+  const bool v1 = opt_.protocol == Protocol::V1;
+  // One read: 1.0 position, speed, load (36..41); 2.0 current, velocity, position (126..135).
+  const std::uint16_t addr = v1 ? 36 : 126;
+  const std::uint16_t len = v1 ? 6 : 10;
+  std::vector<std::uint8_t> d;
+  const double t0 = scip::wallNow();
+  const TxResult r = bus_.read(opt_.id, addr, len, d, &error_byte, opt_.timeout);
+  const double t1 = scip::wallNow();
+  if (r != TxResult::Ok) {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    status_.last_error = std::string("reading the joint state: ") + dynamixel::txResultName(r);
+    return r;
+  }
+  s.stamp = 0.5 * (t0 + t1);
+  if (v1) {
+    const double pos = dynamixel::positionToRad(static_cast<std::int32_t>(dynamixel::getLE(d.data(), 2)));
+    s.position = toJoint(pos);
+    s.velocity = opt_.direction * dynamixel::velocityToRadPerSec(opt_.protocol, dynamixel::getLE(d.data() + 2, 2));
+    s.effort = opt_.direction * dynamixel::loadToFraction(dynamixel::getLE(d.data() + 4, 2));
+  } else {
+    s.effort = opt_.direction * dynamixel::currentToAmp(opt_.protocol, dynamixel::getLE(d.data(), 2));
+    s.velocity = opt_.direction * dynamixel::velocityToRadPerSec(opt_.protocol, dynamixel::getLE(d.data() + 2, 4));
+    const auto raw = static_cast<std::int32_t>(dynamixel::getLE(d.data() + 6, 4));
+    s.position = toJoint(dynamixel::positionToRad(raw));
+  }
+  return TxResult::Ok;
+}
+
+void ServoDriver::sendCommand(const core::TiltCommand& cmd) {
+  const auto& tab = dynamixel::mx64Table(opt_.protocol);
+  std::uint8_t e = 0;
+  if (std::abs(cmd.velocity - last_velocity_cmd_) > 1e-9) {
+    const dynamixel::Reg& vreg = opt_.protocol == Protocol::V1 ? tab.moving_speed : tab.profile_velocity;
+    if (bus_.writeReg(opt_.id, vreg, dynamixel::radPerSecToVelocity(opt_.protocol, cmd.velocity), &e, true,
+                      opt_.timeout) == TxResult::Ok)
+      last_velocity_cmd_ = cmd.velocity;
+  }
+  const std::int32_t raw = dynamixel::radToPosition(toServo(cmd.goal));
+  bus_.writeReg(opt_.id, tab.goal_position, static_cast<std::uint32_t>(raw), &e, true, opt_.timeout);
+}
+
+void ServoDriver::handleHardwareError(std::uint8_t bits, double now) {
+  const bool v1 = opt_.protocol == Protocol::V1;
+  const auto& tab = dynamixel::mx64Table(opt_.protocol);
+  std::uint8_t hw = bits;
+  if (!v1) {  // the alert bit: the reason is in the hardware error register
+    std::uint32_t value = 0;
+    std::uint8_t e = 0;
+    if (bus_.readReg(opt_.id, tab.hardware_error, value, &e, opt_.timeout) == TxResult::Ok) hw = static_cast<std::uint8_t>(value);
+  } else {
+    hw = bits & 0x25;  // input voltage, overheating, overload (range/checksum/instruction are ours)
+  }
+  const std::string names = dynamixel::hardwareErrorNames(opt_.protocol, hw);
+  bool is_new = false;
+  {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    is_new = status_.hardware_error != hw;
+    status_.hardware_error = hw;
+    status_.hardware_error_names = names;
+    if (is_new && hw) ++status_.hardware_error_events;
+  }
+  if (!hw) {
+    hw_error_since_ = -1.0;
+    return;
+  }
+  if (is_new && log_) log_(Level::Error, "servo hardware error: " + names);
+  if (hw_error_since_ < 0) {
+    hw_error_since_ = now;
+    if (hw & (0x04 | 0x20)) dropSweep("servo shut down (" + names + ")");
+  }
+  if ((hw & (0x04 | 0x20)) && now - hw_error_since_ >= opt_.recover_after) {
+    // The servo switched its torque off: reboot it (2.0) or enable the torque again (1.0).
+    std::uint8_t e = 0;
+    if (!v1) {
+      bus_.reboot(opt_.id, &e, opt_.timeout);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      port_.close();  // reconfigure from scratch
+    } else {
+      bus_.writeReg(opt_.id, tab.torque_enable, 1, &e, true, opt_.timeout);
+    }
+    hw_error_since_ = now;
+    if (log_) log_(Level::Warn, "trying to recover the servo from: " + names);
+  }
+}
+
+void ServoDriver::run() {
+  double backoff = opt_.backoff_min;
+  int failures = 0;
+  double next = dynamixel::monotonicNow();
+  double next_health = 0.0;
+  const double period = 1.0 / std::max(1.0, opt_.rate);
+  const auto& tab = dynamixel::mx64Table(opt_.protocol);
+  while (running_) {
+    if (!port_.isOpen()) {
+      {
+        std::lock_guard<std::mutex> l(status_mutex_);
+        status_.connected = false;
+      }
+      if (!openAndConfigure()) {
+        if (log_) log_(Level::Warn, "servo not available (" + status().last_error + "); retrying in " +
+                                        std::to_string(backoff).substr(0, 4) + " s");
+        sleepUntil(dynamixel::monotonicNow() + backoff);
+        backoff = std::min(opt_.backoff_max, backoff * 2.0);
+        continue;
+      }
+      backoff = opt_.backoff_min;
+      failures = 0;
+      profile_.restart();
+      next = dynamixel::monotonicNow();
+    }
+
+    JointSample s;
+    std::uint8_t err = 0;
+    const TxResult rr = readState(s, err);
+    if (rr != TxResult::Ok) {
+      if (rr == TxResult::PortError || rr == TxResult::NotSent || ++failures >= opt_.max_failures) {
+        const std::string why = status().last_error;
+        port_.close();
+        dropSweep(why);
+        std::lock_guard<std::mutex> l(status_mutex_);
+        ++status_.reopens;
+        status_.connected = false;
+        if (log_) log_(Level::Error, "servo lost (" + why + "): reopening " + opt_.device);
+      }
+      next += period;
+      sleepUntil(next);
+      continue;
+    }
+    failures = 0;
+    {
+      std::lock_guard<std::mutex> l(status_mutex_);
+      ++status_.samples;
+      status_.effort = s.effort;
+    }
+    if (on_joint_) on_joint_(s);
+
+    const double now = dynamixel::monotonicNow();
+    const bool alert = opt_.protocol == Protocol::V1 ? (err & 0x25) != 0 : (err & 0x80) != 0;
+    if (alert || status().hardware_error) handleHardwareError(alert ? err : 0, now);
+    if (!port_.isOpen()) continue;
+
+    core::TiltCommand cmd;
+    core::Sweep sweep;
+    bool ended = false;
+    if (!status().hardware_error && profile_.update(s.stamp, s.position, cmd, sweep, &ended)) sendCommand(cmd);
+    if (ended) {
+      if (on_sweep_) on_sweep_(sweep, true);
+      std::lock_guard<std::mutex> l(status_mutex_);
+      ++status_.sweeps;
+    }
+
+    if (now >= next_health) {
+      next_health = now + 1.0;
+      std::uint32_t temp = 0, volt = 0;
+      std::uint8_t e = 0;
+      if (bus_.readReg(opt_.id, tab.present_temperature, temp, &e, opt_.timeout) == TxResult::Ok &&
+          bus_.readReg(opt_.id, tab.present_voltage, volt, &e, opt_.timeout) == TxResult::Ok) {
+        std::lock_guard<std::mutex> l(status_mutex_);
+        status_.temperature = temp;
+        status_.voltage = volt * 0.1;
+      }
+    }
+    next += period;
+    if (next < dynamixel::monotonicNow() - 5 * period) next = dynamixel::monotonicNow();  // fell behind: no burst
+    sleepUntil(next);
+  }
+}
+
+}  // namespace driver
+}  // namespace tilt_laser_perception

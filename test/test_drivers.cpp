@@ -1,0 +1,218 @@
+// The driver loops against the emulated head: joint states at their rate
+// following the true tilt, sweeps, and recovery from every servo and laser fault.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <mutex>
+#include <thread>
+#include <unistd.h>
+
+#include "tilt_laser_perception/driver/laser_driver.hpp"
+#include "tilt_laser_perception/driver/servo_driver.hpp"
+#include "tilt_laser_perception/sim/mx64_emulator.hpp"
+#include "tilt_laser_perception/sim/utm_emulator.hpp"
+
+using namespace tilt_laser_perception;
+using namespace std::chrono_literals;
+
+namespace {
+struct Recorder {
+  std::mutex m;
+  std::vector<driver::JointSample> joints;
+  std::vector<std::pair<core::Sweep, bool>> sweeps;
+  std::vector<std::string> logs;
+  driver::ServoDriver::JointCallback joint() {
+    return [this](const driver::JointSample& s) {
+      std::lock_guard<std::mutex> l(m);
+      joints.push_back(s);
+    };
+  }
+  driver::ServoDriver::SweepCallback sweep() {
+    return [this](const core::Sweep& s, bool complete) {
+      std::lock_guard<std::mutex> l(m);
+      sweeps.emplace_back(s, complete);
+    };
+  }
+  driver::ServoDriver::LogCallback log() {
+    return [this](driver::ServoDriver::Level, const std::string& msg) {
+      std::lock_guard<std::mutex> l(m);
+      logs.push_back(msg);
+    };
+  }
+  std::size_t count() {
+    std::lock_guard<std::mutex> l(m);
+    return joints.size();
+  }
+};
+
+driver::ServoDriverOptions options(dynamixel::Protocol p, const std::string& device) {
+  driver::ServoDriverOptions o;
+  o.device = device;
+  o.protocol = p;
+  o.rate = 200.0;
+  o.profile.min_angle = 0.2;
+  o.profile.max_angle = 0.7;
+  o.profile.speed = 1.0;
+  o.backoff_min = 0.05;
+  o.backoff_max = 0.2;
+  o.recover_after = 0.3;
+  return o;
+}
+}  // namespace
+
+class ServoDriverTest : public ::testing::TestWithParam<int> {};
+
+TEST_P(ServoDriverTest, JointStatesFollowTheTrueTiltAt200Hz) {
+  const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
+  sim::ServoModel servo(0.3, sim::hostNow());
+  sim::Mx64Options mo;
+  mo.protocol = proto;
+  sim::Mx64Emulator emu(servo, mo);
+  emu.start();
+  Recorder rec;
+  driver::ServoDriver drv(options(proto, emu.devicePath()), rec.joint(), rec.sweep(), rec.log());
+  const double t0 = sim::hostNow();
+  drv.start();
+  std::this_thread::sleep_for(2500ms);
+  drv.stop();
+  std::lock_guard<std::mutex> l(rec.m);
+  ASSERT_GT(rec.joints.size(), 100u);
+  const double span = rec.joints.back().stamp - rec.joints.front().stamp;
+  const double rate = (rec.joints.size() - 1) / span;
+  EXPECT_GE(rate, 150.0);
+  double max_err = 0.0, max_v = 0.0;
+  for (const auto& j : rec.joints) {
+    max_err = std::max(max_err, std::abs(j.position - servo.positionAt(j.stamp)));
+    max_v = std::max(max_v, std::abs(j.velocity));
+  }
+  std::printf("protocol %d: %zu joint states at %.0f Hz, max error against the true tilt %.3f deg\n",
+              GetParam(), rec.joints.size(), rate, max_err * 180 / M_PI);
+  // 4096 steps a turn: the position is quantised to 0.088 deg; the midpoint stamp adds little.
+  EXPECT_LT(max_err * 180.0 / M_PI, 0.2);
+  EXPECT_NEAR(max_v, 1.0, 0.1);
+  // 0.5 rad at 1 rad/s: a sweep about every 0.55 s after reaching the first end.
+  int complete = 0;
+  for (const auto& s : rec.sweeps) complete += s.second;
+  EXPECT_GE(complete, 2);
+  (void)t0;
+}
+
+TEST_P(ServoDriverTest, RecoversFromEveryServoFault) {
+  const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
+  sim::ServoModel servo(0.3, sim::hostNow());
+  sim::Mx64Options mo;
+  mo.protocol = proto;
+  mo.link_path = ::testing::TempDir() + "/tlp_drv_" + std::to_string(GetParam()) + "_" + std::to_string(::getpid());
+  sim::Mx64Emulator emu(servo, mo);
+  emu.start();
+  Recorder rec;
+  driver::ServoDriver drv(options(proto, mo.link_path), rec.joint(), rec.sweep(), rec.log());
+  drv.start();
+  const auto flowing = [&] {
+    const std::size_t n = rec.count();
+    std::this_thread::sleep_for(200ms);
+    return rec.count() > n + 10;
+  };
+  std::this_thread::sleep_for(300ms);
+  ASSERT_TRUE(flowing());
+
+  emu.corruptNextReplies(2);
+  emu.garbageBeforeNextReplies(3);
+  std::this_thread::sleep_for(100ms);
+  EXPECT_TRUE(flowing());
+  auto st = drv.status();
+  EXPECT_GE(st.bus.bad_packets, 1u);
+  EXPECT_GE(st.bus.garbage_bytes, 3u);
+
+  emu.setNoReply(true);  // silent servo: reopened after 5 failed reads
+  std::this_thread::sleep_for(400ms);
+  EXPECT_GE(drv.status().reopens, 1u);
+  emu.setNoReply(false);
+  std::this_thread::sleep_for(400ms);
+  EXPECT_TRUE(flowing());
+
+  emu.vanish();  // unplugged
+  std::this_thread::sleep_for(300ms);
+  EXPECT_FALSE(drv.status().connected);
+  emu.reappear();
+  std::this_thread::sleep_for(600ms);
+  EXPECT_TRUE(drv.status().connected);
+  EXPECT_TRUE(flowing());
+
+  emu.setHardwareError(0x20);  // overload: the servo shuts down
+  std::this_thread::sleep_for(200ms);
+  st = drv.status();
+  EXPECT_EQ(st.hardware_error_names, "overload");
+  EXPECT_GE(st.hardware_error_events, 1u);
+  EXPECT_TRUE(flowing());  // joint states go on while it is in error
+  if (proto == dynamixel::Protocol::V2) {
+    // The driver reboots it after recover_after and carries on.
+    std::this_thread::sleep_for(800ms);
+    EXPECT_EQ(drv.status().hardware_error, 0u);
+  } else {
+    emu.setHardwareError(0);
+    std::this_thread::sleep_for(800ms);
+    EXPECT_EQ(drv.status().hardware_error, 0u);
+  }
+  const auto before = rec.count();
+  std::this_thread::sleep_for(300ms);
+  EXPECT_GT(rec.count(), before + 30);
+  const auto t_stop = std::chrono::steady_clock::now();
+  drv.stop();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t_stop).count(), 2.0);
+  std::lock_guard<std::mutex> l(rec.m);
+  int aborted = 0;
+  for (const auto& s : rec.sweeps) aborted += !s.second;
+  EXPECT_GE(aborted, 1);  // the faults dropped sweeps in progress
+}
+
+INSTANTIATE_TEST_SUITE_P(Protocols, ServoDriverTest, ::testing::Values(1, 2));
+
+TEST(LaserDriver, ReconnectsAfterDropsAndReboots) {
+  sim::Scene scene = sim::loadScene("split_room");
+  sim::LidarSimulator lidar(scene, sim::LidarModel(), sim::NoiseParams(), 3);
+  std::mutex m;
+  sim::UtmOptions uo;
+  uo.reboot_time = 0.3;
+  sim::UtmEmulator utm(
+      [&](double t0, sim::SimScan& out) {
+        std::lock_guard<std::mutex> l(m);
+        lidar.scan(t0, [](double) { return Eigen::Isometry3d::Identity(); }, out);
+      },
+      uo);
+  utm.start();
+  driver::LaserDriverOptions lo;
+  lo.host = "127.0.0.1";
+  lo.port = utm.port();
+  lo.backoff_min = 0.05;
+  lo.client.watchdog = 0.5;
+  std::atomic<int> scans{0};
+  driver::LaserDriver drv(lo, [&](const scip::UtmScan& s) { scans += s.ranges.size() == 1081; }, nullptr);
+  drv.start();
+  std::this_thread::sleep_for(1500ms);
+  EXPECT_NEAR(drv.status().scan_rate, 40.0, 3.0);
+  const auto flowing = [&] {
+    const int n = scans;
+    std::this_thread::sleep_for(300ms);
+    return scans > n + 5;
+  };
+  EXPECT_TRUE(flowing());
+  utm.dropConnection();
+  std::this_thread::sleep_for(400ms);
+  EXPECT_TRUE(flowing());
+  utm.setSilent(true);
+  std::this_thread::sleep_for(800ms);
+  utm.setSilent(false);
+  std::this_thread::sleep_for(800ms);
+  EXPECT_TRUE(flowing());
+  utm.reboot();
+  std::this_thread::sleep_for(1500ms);
+  EXPECT_TRUE(flowing());
+  const auto st = drv.status();
+  EXPECT_GE(st.reconnects, 3u);
+  EXPECT_GE(st.counters.timeouts, 1u);
+  const auto t_stop = std::chrono::steady_clock::now();
+  drv.stop();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t_stop).count(), 2.0);
+}
