@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <csignal>
 #include <cstdio>
@@ -71,9 +72,16 @@ int main(int argc, char** argv) {
   sim::UtmOptions utm_opt;
   sim::NoiseParams noise;
   std::vector<Fault> faults;
+  // roslaunch appends __name:= and __log:= arguments: leave them out.
+  std::vector<char*> args{argv[0]};
+  for (int i = 1; i < argc; ++i)
+    if (std::strstr(argv[i], ":=") == nullptr) args.push_back(argv[i]);
+  argc = static_cast<int>(args.size());
+  argv = args.data();
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
+    if (a == "--truth" && (!v || std::strncmp(argv[i + 1], "--", 2) == 0)) continue;  // an empty --truth: none
     if (a == "--scene" && v) scene_name = argv[++i];
     else if (a == "--protocol" && v) protocol = std::atoi(argv[++i]);
     else if (a == "--seed" && v) seed = std::strtoul(argv[++i], nullptr, 10);
@@ -120,7 +128,8 @@ int main(int argc, char** argv) {
       if (!truth) throw std::runtime_error("cannot write " + truth_path);
       truth << "# tilt_laser_sim ground truth, scene " << scene.name << "\n"
             << "# per scan: start_time [s, host], tilt of every beam [rad] (1081 values), '|', then the face\n"
-            << "# hit by every beam as runs 'face*count' (-1: none)\n";
+            << "# hit by every beam as runs 'face*count' (-1: none), '|', then the noise-free range of every\n"
+            << "# beam [mm] (-1: nothing hit)\n";
     }
     std::mutex sim_mutex;
     sim::HeadScan hs;
@@ -144,6 +153,8 @@ int main(int argc, char** argv) {
           truth << ' ' << f[i] << '*' << (j - i);
           i = j;
         }
+        truth << " |";
+        for (float r : hs.scan.true_ranges) truth << ' ' << (std::isfinite(r) ? static_cast<long>(std::lround(r * 1000.0)) : -1L);
         truth << '\n';
       }
     };

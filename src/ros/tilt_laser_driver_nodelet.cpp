@@ -1,0 +1,246 @@
+#include "tilt_laser_perception/ros/tilt_laser_driver_nodelet.hpp"
+
+#include <boost/make_shared.hpp>
+#include <pluginlib/class_list_macros.hpp>
+#include <sensor_msgs/JointState.h>
+#include <sensor_msgs/LaserScan.h>
+
+#include "tilt_laser_perception/TiltSweep.h"
+
+namespace tilt_laser_perception {
+
+TiltLaserDriverNodelet::~TiltLaserDriverNodelet() {
+  diagnostics_timer_.stop();
+  // Both loops poll their stop flag at least every 0.1 s and their I/O has timeouts: joined within 2 s.
+  if (servo_) servo_->stop();
+  if (laser_) laser_->stop();
+}
+
+void TiltLaserDriverNodelet::log(int level, const std::string& msg) {
+  // Throttled per message kind (its first 30 characters): a fault that repeats is said every 5 s.
+  const std::string key = msg.substr(0, 30);
+  {
+    std::lock_guard<std::mutex> l(log_mutex_);
+    const ros::WallTime now = ros::WallTime::now();
+    auto it = last_log_.find(key);
+    if (level > 0 && it != last_log_.end() && (now - it->second).toSec() < 5.0) return;
+    last_log_[key] = now;
+  }
+  if (level == 0) NODELET_INFO("%s", msg.c_str());
+  else if (level == 1) NODELET_WARN("%s", msg.c_str());
+  else NODELET_ERROR("%s", msg.c_str());
+}
+
+void TiltLaserDriverNodelet::onInit() {
+  ros::NodeHandle& nh = getNodeHandle();
+  ros::NodeHandle& pnh = getPrivateNodeHandle();
+
+  driver::LaserDriverOptions lo;
+  pnh.param<std::string>("laser_ip", lo.host, "192.168.0.10");
+  pnh.param("laser_port", lo.port, 10940);
+  pnh.param<std::string>("laser_serial_device", lo.serial_device, "");
+  pnh.param("angle_min", lo.client.angle_min, -2.35619449);
+  pnh.param("angle_max", lo.client.angle_max, 2.35619449);
+  pnh.param("cluster", lo.client.cluster, 1);
+  pnh.param("skip", lo.client.skip, 0);
+  pnh.param("intensity", lo.client.intensity, false);
+  pnh.param("watchdog", lo.client.watchdog, 1.0);
+  pnh.param("time_offset", lo.client.time_offset, 0.0);
+  pnh.param("clock_sync_period", lo.client.ii_period, 0.2);
+  pnh.param<std::string>("frame_id", frame_id_, "laser");
+
+  driver::ServoDriverOptions so;
+  int id = 1, protocol = 2, direction = 1;
+  pnh.param<std::string>("servo_device", so.device, "/dev/ttyUSB0");
+  pnh.param("servo_baud", so.baud, 57600);
+  pnh.param("servo_id", id, 1);
+  pnh.param("servo_protocol", protocol, 2);
+  pnh.param("publish_rate", so.rate, 200.0);
+  pnh.param("joint_offset", so.joint_offset, 0.0);
+  pnh.param("joint_direction", direction, 1);
+  pnh.param<std::string>("joint_name", joint_name_, "head_tilt_joint");
+  std::string mode;
+  pnh.param<std::string>("tilt_mode", mode, "sweep");
+  pnh.param("tilt_min", so.profile.min_angle, 0.1745);
+  pnh.param("tilt_max", so.profile.max_angle, 1.0472);
+  pnh.param("tilt_speed", so.profile.speed, 1.0);
+  pnh.param("tilt_acceleration", so.profile.acceleration, 20.0);
+  pnh.param("tilt_step", so.profile.step, 0.00873);
+  pnh.param("tilt_hold", so.profile.hold_time, 0.035);
+  bool enable_laser = true, enable_servo = true;
+  pnh.param("enable_laser", enable_laser, true);
+  pnh.param("enable_servo", enable_servo, true);
+
+  // Validation, with a clear message; a bad value falls back to its default.
+  so.profile.mode = mode == "step_hold" ? core::TiltProfileParams::Mode::StepHold : core::TiltProfileParams::Mode::Sweep;
+  if (mode != "sweep" && mode != "step_hold") NODELET_ERROR("~tilt_mode must be 'sweep' or 'step_hold', got '%s': using sweep", mode.c_str());
+  const std::string problem = so.profile.validate();
+  if (!problem.empty()) {
+    NODELET_ERROR("invalid tilt profile (%s): using the defaults", problem.c_str());
+    so.profile = core::TiltProfileParams();
+  }
+  if (protocol != 1 && protocol != 2) {
+    NODELET_ERROR("~servo_protocol must be 1 or 2, got %d: using 2", protocol);
+    protocol = 2;
+  }
+  if (id < 0 || id > 252) {
+    NODELET_ERROR("~servo_id must be in 0..252, got %d: using 1", id);
+    id = 1;
+  }
+  if (direction != 1 && direction != -1) {
+    NODELET_ERROR("~joint_direction must be 1 or -1, got %d: using 1", direction);
+    direction = 1;
+  }
+  if (!(so.rate >= 10.0 && so.rate <= 1000.0)) {
+    NODELET_ERROR("~publish_rate must be in [10, 1000] Hz, got %.1f: using 200", so.rate);
+    so.rate = 200.0;
+  }
+  if (!(lo.client.watchdog > 0.05)) {
+    NODELET_ERROR("~watchdog must be > 0.05 s: using 1.0");
+    lo.client.watchdog = 1.0;
+  }
+  so.id = static_cast<std::uint8_t>(id);
+  so.protocol = protocol == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
+  so.direction = direction;
+
+  scan_pub_ = nh.advertise<sensor_msgs::LaserScan>("scan", 20);
+  joint_pub_ = nh.advertise<sensor_msgs::JointState>("joint_states", 100);
+  sweep_pub_ = nh.advertise<TiltSweep>("tilt_sweep", 10);
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+  diagnostics_->setHardwareID(enable_laser ? lo.host : "none");
+  scan_freq_ = std::make_unique<diagnostic_updater::FrequencyStatus>(
+      diagnostic_updater::FrequencyStatusParam(&scan_freq_min_, &scan_freq_max_, 0.0, 5), "scan rate");
+  joint_freq_ = std::make_unique<diagnostic_updater::FrequencyStatus>(
+      diagnostic_updater::FrequencyStatusParam(&joint_freq_min_, &joint_freq_max_, 0.0, 5), "joint state rate");
+  if (enable_laser) {
+    diagnostics_->add("laser", this, &TiltLaserDriverNodelet::diagnoseLaser);
+    diagnostics_->add(*scan_freq_);
+  }
+  if (enable_servo) {
+    diagnostics_->add("tilt servo", this, &TiltLaserDriverNodelet::diagnoseServo);
+    diagnostics_->add(*joint_freq_);
+  }
+  diagnostics_timer_ = nh.createTimer(ros::Duration(0.5), [this](const ros::TimerEvent&) { diagnostics_->update(); });
+
+  const auto logger = [this](auto level, const std::string& m) { log(static_cast<int>(level), m); };
+  if (enable_laser) {
+    laser_ = std::make_unique<driver::LaserDriver>(
+        lo,
+        [this](const scip::UtmScan& s) {
+          auto msg = boost::make_shared<sensor_msgs::LaserScan>();
+          msg->header.seq = scan_seq_++;
+          msg->header.stamp = ros::Time(s.stamp);
+          msg->header.frame_id = frame_id_;
+          msg->angle_min = s.angle_min;
+          msg->angle_max = s.angle_max;
+          msg->angle_increment = s.angle_increment;
+          msg->time_increment = s.time_increment;
+          msg->scan_time = s.scan_time;
+          msg->range_min = s.range_min;
+          msg->range_max = s.range_max;
+          msg->ranges = s.ranges;
+          msg->intensities = s.intensities;
+          scan_pub_.publish(msg);
+          scan_freq_->tick();
+        },
+        logger);
+    laser_->start();
+  }
+  if (enable_servo) {
+    servo_ = std::make_unique<driver::ServoDriver>(
+        so,
+        [this](const driver::JointSample& j) {
+          auto msg = boost::make_shared<sensor_msgs::JointState>();
+          msg->header.stamp = ros::Time(j.stamp);
+          msg->name = {joint_name_};
+          msg->position = {j.position};
+          msg->velocity = {j.velocity};
+          msg->effort = {j.effort};
+          joint_pub_.publish(msg);
+          joint_freq_->tick();
+        },
+        [this](const core::Sweep& s, bool complete) {
+          auto msg = boost::make_shared<TiltSweep>();
+          msg->header.stamp = ros::Time(s.end_time);
+          msg->id = s.id;
+          msg->start = ros::Time(s.start_time);
+          msg->end = ros::Time(s.end_time);
+          msg->start_angle = s.start_angle;
+          msg->end_angle = s.end_angle;
+          msg->upward = s.upward;
+          msg->complete = complete;
+          sweep_pub_.publish(msg);
+        },
+        logger);
+    servo_->start();
+  }
+  NODELET_INFO("TiltLaserDriver: laser %s, servo %s (protocol %d, id %d), tilt %s %.1f..%.1f deg at %.2f rad/s",
+               enable_laser ? (lo.serial_device.empty() ? (lo.host + ":" + std::to_string(lo.port)).c_str()
+                                                        : lo.serial_device.c_str())
+                            : "off",
+               enable_servo ? so.device.c_str() : "off", protocol, id, mode.c_str(),
+               so.profile.min_angle * 180 / M_PI, so.profile.max_angle * 180 / M_PI, so.profile.speed);
+}
+
+void TiltLaserDriverNodelet::diagnoseLaser(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  const driver::LaserStatus s = laser_->status();
+  if (!s.streaming)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "not streaming: %s", s.last_error.c_str());
+  else if (s.scan_rate < 38.0)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "scan rate %.1f Hz (expected 40)", s.scan_rate);
+  else
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "streaming");
+  stat.add("endpoint", s.endpoint);
+  stat.add("model", s.info.model);
+  stat.add("serial", s.info.serial);
+  stat.add("firmware", s.info.firmware);
+  stat.add("scan rate [Hz]", s.scan_rate);
+  stat.add("stamp delay [ms]", s.stamp_delay * 1e3);
+  stat.add("clock offset host-sensor [s]", s.clock_offset);
+  stat.add("clock drift [ppm]", s.clock_drift_ppm);
+  stat.add("clock samples", s.clock_samples);
+  stat.add("scans", s.counters.scans);
+  stat.add("checksum errors", s.counters.checksum_errors);
+  stat.add("truncated scans", s.counters.truncated);
+  stat.add("other bad scans", s.counters.bad_scans + s.counters.error_status);
+  stat.add("watchdog timeouts", s.counters.timeouts);
+  stat.add("connections", s.counters.connects);
+  stat.add("failed connection attempts", s.counters.connect_failures);
+  stat.add("reconnects", s.reconnects);
+  stat.add("clock jumps (reboots)", s.counters.clock_jumps);
+  stat.add("last error", s.last_error);
+}
+
+void TiltLaserDriverNodelet::diagnoseServo(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  const driver::ServoStatus s = servo_->status();
+  if (!s.connected)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "not connected: %s", s.last_error.c_str());
+  else if (s.hardware_error)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "hardware error: %s", s.hardware_error_names.c_str());
+  else if (s.bus.successRate() < 0.99)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "transactions %.1f %% successful", 100 * s.bus.successRate());
+  else
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
+  stat.add("model", s.model);
+  stat.add("temperature [C]", s.temperature);
+  stat.add("voltage [V]", s.voltage);
+  stat.add("effort", s.effort);
+  stat.add("hardware error bits", static_cast<int>(s.hardware_error));
+  stat.add("hardware errors", s.hardware_error_names.empty() ? "none" : s.hardware_error_names);
+  stat.add("hardware error events", s.hardware_error_events);
+  stat.add("transactions", s.bus.transactions);
+  stat.add("transaction success rate [%]", 100.0 * s.bus.successRate());
+  stat.add("timeouts", s.bus.timeouts);
+  stat.add("bad packets", s.bus.bad_packets);
+  stat.add("garbage bytes", s.bus.garbage_bytes);
+  stat.add("port reopens", s.reopens);
+  stat.add("joint states", s.samples);
+  stat.add("sweeps", s.sweeps);
+  stat.add("sweeps dropped", s.aborted_sweeps);
+  stat.add("last error", s.last_error);
+}
+
+}  // namespace tilt_laser_perception
+
+PLUGINLIB_EXPORT_CLASS(tilt_laser_perception::TiltLaserDriverNodelet, nodelet::Nodelet)
