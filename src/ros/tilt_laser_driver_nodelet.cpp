@@ -46,7 +46,7 @@ void TiltLaserDriverNodelet::onInit() {
   pnh.param("intensity", lo.client.intensity, false);
   pnh.param("watchdog", lo.client.watchdog, 1.0);
   pnh.param("time_offset", lo.client.time_offset, 0.0);
-  pnh.param("clock_sync_period", lo.client.ii_period, 0.2);
+  pnh.param("clock_sync_period", lo.client.ii_period, 0.1);
   pnh.param<std::string>("frame_id", frame_id_, "laser");
 
   driver::ServoDriverOptions so;

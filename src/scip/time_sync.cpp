@@ -33,6 +33,7 @@ void ScanClock::reset() {
   clock_.clear();
   have_origin_ = have_scan_ = false;
   min_rtt_ = 1e9;
+  host_per_rev_ = opt_.period_ms * 1e-3;
   offset_ = drift_ppm_ = latency_ = sensor_time_ = 0.0;
   scans_ = missed_ = 0;
 }
@@ -130,19 +131,69 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
   double a = s_abs + 0.5 - opt_.period_ms * last_k_, p = opt_.period_ms;
   if (scans_win_.size() >= 8) {
     fitLine(scans_win_, [](const ScanSample& e) { return e.k; }, [](const ScanSample& e) { return e.s + 0.5; }, a, p);
-    double lo = -1e300, hi = 1e300;
-    for (const ScanSample& e : scans_win_) {
-      lo = std::max(lo, e.s - p * e.k);
-      hi = std::min(hi, e.s + 1.0 - p * e.k);
+    // For a rate q, the offsets every floor allows are [lo(q), hi(q)]; its
+    // width is concave in q. Take the rate that leaves the widest interval
+    // (ternary search near the least-squares rate) and the interval's middle.
+    const auto interval = [&](double q, double& lo, double& hi) {
+      lo = -1e300;
+      hi = 1e300;
+      const double k0 = scans_win_.back().k;  // offsets at the newest scan: well conditioned
+      for (const ScanSample& e : scans_win_) {
+        lo = std::max(lo, e.s - q * (e.k - k0));
+        hi = std::min(hi, e.s + 1.0 - q * (e.k - k0));
+      }
+    };
+    double q_lo = p - 0.01, q_hi = p + 0.01, lo = 0, hi = 0;
+    for (int it = 0; it < 40; ++it) {
+      const double m1 = q_lo + (q_hi - q_lo) / 3.0, m2 = q_hi - (q_hi - q_lo) / 3.0;
+      double l1, h1, l2, h2;
+      interval(m1, l1, h1);
+      interval(m2, l2, h2);
+      if (h1 - l1 < h2 - l2) q_lo = m1;
+      else q_hi = m2;
     }
-    if (lo < hi) a = 0.5 * (lo + hi);
+    p = 0.5 * (q_lo + q_hi);
+    interval(p, lo, hi);
+    a = 0.5 * (lo + hi) - p * scans_win_.back().k;
   }
   const double sigma = a + p * last_k_;
   sensor_time_ = origin_ + sigma;
 
+  // The clocks' rate ratio from the stream: sensor milliseconds per revolution
+  // (above) over host seconds per revolution (the lower envelope of the
+  // arrivals: the earliest in each run of 10 revolutions, jitter only delays).
+  double g_stream = 0.0;
+  if (scans_win_.size() >= 40 && scans_win_.back().r - scans_win_.front().r >= 2.0) {
+    std::vector<std::pair<double, double>> minima;  // (k, arrival)
+    const double r0 = scans_win_.front().r;
+    for (std::size_t start = 0; start < scans_win_.size(); start += 10) {
+      const std::size_t end = std::min(scans_win_.size(), start + 10);
+      std::size_t best = start;
+      for (std::size_t i = start + 1; i < end; ++i)
+        if (scans_win_[i].r - host_per_rev_ * scans_win_[i].k < scans_win_[best].r - host_per_rev_ * scans_win_[best].k)
+          best = i;
+      minima.emplace_back(scans_win_[best].k, scans_win_[best].r - r0);
+    }
+    double ia = 0.0, per_rev = 0.0;
+    fitLine(minima, [](const std::pair<double, double>& e) { return e.first; },
+            [](const std::pair<double, double>& e) { return e.second; }, ia, per_rev);
+    if (per_rev > 0.5 * opt_.period_ms * 1e-3 && per_rev < 2.0 * opt_.period_ms * 1e-3) {
+      host_per_rev_ = per_rev;
+      g_stream = p / per_rev;  // sensor ms per host s
+    }
+  }
+
   double host;
   double c = 0.0, g = 1000.0;
-  if (fitClock(c, g)) {
+  if (g_stream > 900.0 && g_stream < 1100.0 && clock_.size() >= 3) {
+    // The rate is known: every clock sample then measures the same offset.
+    g = g_stream;
+    double sum = 0.0;
+    for (const ClockSample& e : clock_) sum += e.s - g * e.h;
+    c = sum / static_cast<double>(clock_.size());
+    host = host0_ + (sigma - c) / g;
+    drift_ppm_ = (g / 1000.0 - 1.0) * 1e6;
+  } else if (fitClock(c, g)) {
     host = host0_ + (sigma - c) / g;
     drift_ppm_ = (g / 1000.0 - 1.0) * 1e6;
   } else {

@@ -31,7 +31,7 @@ struct UtmClientOptions {
   double connect_timeout = 2.0;    ///< [s]
   double command_timeout = 1.0;    ///< [s]
   int tm_samples = 20;             ///< TM1 round trips for the clock offset
-  double ii_period = 0.2;          ///< II requests while streaming, to track the clock [s]; 0: none
+  double ii_period = 0.1;          ///< II requests while streaming, to track the clock [s]; 0: none
   double time_offset = 0.0;        ///< added to every stamp [s] (cable or firmware delays)
 };
 

@@ -16,6 +16,12 @@
  *     floors walk across the millisecond; a line fitted to (revolution index,
  *     stamp), narrowed to the offsets every floor allows, gives each scan's
  *     sensor time of step 0 below the millisecond.
+ *  3. The arrivals follow the revolutions with a constant latency plus
+ *     jitter that only ever delays: the lower envelope of (revolution,
+ *     arrival) gives host seconds per revolution. With the sensor
+ *     milliseconds per revolution from 2 this is the clocks' rate ratio,
+ *     free of the stamps' quantisation; every clock sample then measures the
+ *     same offset, and their mean is used.
  * Without clock samples the arrival times stand in (minus a nominal latency).
  * The 24-bit wrap (every 4.66 h) is unwrapped; a jump backwards (a reboot)
  * resets the model.
@@ -97,6 +103,7 @@ class ScanClock {
   std::uint32_t last_scan24_ = 0;
   double last_k_ = 0.0;
   double min_rtt_ = 1e9;
+  double host_per_rev_ = 0.025;  // host seconds per revolution (arrival envelope)
   double offset_ = 0.0, drift_ppm_ = 0.0, latency_ = 0.0, sensor_time_ = 0.0;
   unsigned long scans_ = 0, jumps_ = 0, missed_ = 0, rejected_ = 0;
 };
