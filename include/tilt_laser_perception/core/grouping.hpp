@@ -1,0 +1,100 @@
+/**
+ * @file grouping.hpp
+ * @brief Scan line grouping (Jiang and Bunke 1994): straight segments of
+ *        adjacent scan lines that are coplanar seed a plane; planes grow with
+ *        the segments of the next lines that fit them; planes that meet and
+ *        agree merge. Runs as scan lines arrive; finish() only merges and
+ *        builds the polygons. Plane parameters come from the summed point
+ *        moments of the members (exact least squares). ROS-free; [m], [rad].
+ */
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tilt_laser_perception/core/plane.hpp"
+
+namespace tilt_laser_perception {
+namespace core {
+
+/// A straight segment of one scan line, in 3D.
+struct Segment3 {
+  int line = 0;               ///< scan line index in the sweep
+  int first = 0, last = 0;    ///< beam indices (inclusive)
+  Eigen::Vector3d start, end; ///< end points [m]
+  Moments3 moments;           ///< of its points in 3D
+  double range = 0.0;         ///< mean range of its points [m]
+  double length() const { return (end - start).norm(); }
+};
+
+struct GroupingParams {
+  double dist_min = 0.03;         ///< plane distance threshold floor [m]
+  double dist_ratio = 0.015;      ///< threshold growth with range [1]
+  double centroid_min = 0.012;    ///< a segment's centroid must lie this close to the plane [m] ...
+  double centroid_ratio = 0.005;  ///< ... plus this much of its range [1] (a fitted line is far less noisy than its points)
+  double angle_deg = 12.0;        ///< a segment may leave its plane by this much [deg]
+  double merge_angle_deg = 15.0;  ///< planes whose normals differ less may merge (if their union fits one plane) [deg]
+  double seed_gap = 0.25;         ///< largest distance between the segments that seed a plane [m] (+ 5 % of range)
+  int beam_slack = 8;             ///< beam index slack for overlap between adjacent lines
+  int max_line_gap = 2;           ///< a plane stays open this many lines without a new segment
+  int min_segments = 2;           ///< smaller planes are dropped (a riser may be crossed by two lines only)
+  double min_area = 0.01;         ///< [m^2]
+  int min_points = 8;             ///< segments with fewer points than this are left out
+  std::string validate() const;
+  double threshold(double range) const { return std::max(dist_min, dist_ratio * range); }
+};
+
+/// A plane found by grouping.
+struct Plane {
+  int id = 0;
+  PlaneFit fit;                       ///< normal points towards the sensor
+  double area = 0.0;                  ///< [m^2], outer polygon minus holes
+  int points = 0, segments = 0;
+  std::vector<int> members;           ///< indices into ScanLineGrouper::segments()
+  std::vector<Eigen::Vector3d> boundary;               ///< outer polygon, on the plane
+  std::vector<std::vector<Eigen::Vector3d>> holes;     ///< hole polygons, on the plane
+};
+
+class ScanLineGrouper {
+ public:
+  explicit ScanLineGrouper(const GroupingParams& p = GroupingParams()) : p_(p) {}
+  void setParams(const GroupingParams& p) { p_ = p; }
+  const GroupingParams& params() const { return p_; }
+
+  /// Starts a new sweep. `sensor` is where the sensor is (normals are turned towards it).
+  void reset(const Eigen::Vector3d& sensor = Eigen::Vector3d::Zero());
+  /// Adds the segments of the next scan line (all with the same `line`, increasing).
+  void addLine(const std::vector<Segment3>& segments);
+  /// Merges, filters and builds the polygons; planes are numbered from 0.
+  void finish(std::vector<Plane>& planes);
+
+  const std::vector<Segment3>& segments() const { return segs_; }
+  /// After finish(): the plane of each segment, -1 for none.
+  const std::vector<int>& segmentPlane() const { return seg_plane_; }
+
+ private:
+  struct Region {
+    Moments3 moments;
+    std::vector<int> members;
+    int first_line = 0, last_line = 0;
+    PlaneFit fit;
+    bool dead = false;   // merged into another
+    int parent = -1;
+  };
+  bool fits(const Region& r, const Segment3& s, double& score) const;
+  bool planesAgree(const Region& a, const Region& b) const;
+  void absorb(int into, int from);
+  void buildPolygon(const Region& r, Plane& out) const;
+
+  GroupingParams p_;
+  Eigen::Vector3d sensor_ = Eigen::Vector3d::Zero();
+  std::vector<Segment3> segs_;
+  std::vector<int> seg_region_;
+  std::vector<Region> regions_;
+  std::vector<int> open_;  // regions still growing
+  std::vector<int> seg_plane_;
+};
+
+}  // namespace core
+}  // namespace tilt_laser_perception

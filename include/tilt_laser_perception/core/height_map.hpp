@@ -1,0 +1,45 @@
+/**
+ * @file height_map.hpp
+ * @brief A 2.5D height map for footstep planning from the planes and points of
+ *        a sweep: cells inside a (near-)horizontal plane's polygon take the
+ *        plane's height there; points outside such planes mark obstacles with
+ *        their top height; the rest stays unknown (NaN). ROS-free; [m].
+ */
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "tilt_laser_perception/core/sweep.hpp"
+
+namespace tilt_laser_perception {
+namespace core {
+
+enum class CellClass : std::uint8_t { Unknown = 0, Floor = 1, Step = 2, Obstacle = 3 };
+
+struct HeightMapParams {
+  double resolution = 0.01;   ///< [m/cell]
+  double origin_x = -0.5;     ///< corner of cell (0, 0) in the map frame [m]
+  double origin_y = -2.0;
+  int width = 400;            ///< cells along x
+  int height = 400;           ///< cells along y
+  double max_slope_deg = 15.0;       ///< planes steeper than this are not walkable surfaces
+  double floor_tolerance = 0.03;     ///< cells within this of the floor's height are floor [m]
+  double obstacle_min_height = 0.05; ///< points this far above a cell's surface make it an obstacle [m]
+};
+
+struct HeightMapGrid {
+  HeightMapParams params;
+  std::vector<float> heights;          ///< row-major (y rows, x columns) [m], NaN unknown
+  std::vector<std::int32_t> plane_ids; ///< -1 none
+  std::vector<CellClass> classes;
+  double floor_height = 0.0;           ///< height of the floor plane [m] (NaN when none was found)
+  int floor_plane = -1;
+  std::size_t index(int ix, int iy) const { return static_cast<std::size_t>(iy) * params.width + ix; }
+};
+
+/// Builds the height map of a sweep (planes and points in the map frame, z up).
+void buildHeightMap(const SweepResult& sweep, const HeightMapParams& params, HeightMapGrid& out);
+
+}  // namespace core
+}  // namespace tilt_laser_perception

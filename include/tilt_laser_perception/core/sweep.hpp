@@ -1,0 +1,144 @@
+/**
+ * @file sweep.hpp
+ * @brief Sweep assembly: joint angles interpolated at every beam's own time,
+ *        scan lines put in 3D through the tilt chain, sweeps cut at the tilt
+ *        reversals, and scan line grouping run as lines arrive. ROS-free;
+ *        time [s], angles [rad], lengths [m].
+ */
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "tilt_laser_perception/core/grouping.hpp"
+#include "tilt_laser_perception/core/scan_split.hpp"
+
+namespace tilt_laser_perception {
+namespace core {
+
+/// The kinematic chain from the assembly frame to the laser through the tilt joint:
+/// laser pose = base_to_joint * rotation(axis, q) * joint_to_laser.
+struct TiltChain {
+  Eigen::Isometry3d base_to_joint = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitY();
+  Eigen::Isometry3d joint_to_laser = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d laserPose(double q) const {
+    return base_to_joint * Eigen::AngleAxisd(q, axis) * joint_to_laser;
+  }
+};
+
+/// Joint angles over time; linear interpolation; gaps and disorder detected.
+class JointBuffer {
+ public:
+  explicit JointBuffer(double max_gap = 0.05, double keep = 5.0) : max_gap_(max_gap), keep_(keep) {}
+  /// Adds a sample; false (not added) when its stamp is not after the last one.
+  bool add(double t, double q);
+  /// The angle at t; false when t is outside the buffer or falls in a gap longer than max_gap.
+  bool at(double t, double& q) const;
+  double latest() const { return samples_.empty() ? -1e300 : samples_.back().first; }
+  bool empty() const { return samples_.empty(); }
+  void clear() { samples_.clear(); }
+
+ private:
+  double max_gap_, keep_;
+  std::deque<std::pair<double, double>> samples_;
+};
+
+struct SweepParams {
+  double reversal_hysteresis = 0.005;  ///< the joint must come back this far from an extreme to count as a reversal [rad]
+  double max_joint_gap = 0.05;         ///< longest gap between joint states to interpolate over [s]
+  double max_wait = 0.3;               ///< a scan line waits this long for joint states [s]
+  double max_dropped_fraction = 0.1;   ///< a sweep with more dropped lines is dropped [1]
+  int min_lines = 10;                  ///< shorter sweeps are dropped
+  bool per_beam = true;                ///< joint angle at every beam's time; false: one angle per line (its middle)
+  GroupingParams grouping;
+};
+
+/// A scan line put in 3D (organized: one entry per beam, NaN where there is no return).
+struct SweepLine {
+  double stamp = 0.0;            ///< time of beam 0 [s]
+  double time_increment = 0.0;   ///< [s]
+  std::vector<Eigen::Vector3f> points;
+  std::vector<float> intensities;  ///< empty when the scan had none
+  std::vector<float> tilt;         ///< joint angle at each beam [rad]
+  std::vector<std::pair<int, EdgeKind>> edges;
+};
+
+/// A finished sweep.
+struct SweepResult {
+  std::uint32_t id = 0;
+  double start = 0.0, end = 0.0;    ///< reversal times [s]
+  std::vector<SweepLine> lines;
+  std::vector<Segment3> segments;   ///< all segments, lines in order
+  std::vector<int> segment_plane;   ///< plane of each segment, -1 none
+  std::vector<Plane> planes;
+  int dropped_lines = 0;
+  double group_seconds = 0.0;       ///< CPU time of putting lines in 3D and grouping them as they came [s]
+  double finish_seconds = 0.0;      ///< time from the sweep's end to its planes [s]
+};
+
+/// Counters for diagnostics.
+struct SweepCounters {
+  unsigned long lines = 0, lines_no_joint = 0, lines_out_of_order = 0, lines_no_pose = 0, lines_bad = 0,
+                joints_out_of_order = 0, sweeps = 0, sweeps_dropped = 0, reversals = 0;
+};
+
+/// One scan line with its split, as the assembler takes it (copied).
+struct LineInput {
+  std::vector<float> ranges, intensities;
+  double angle_min = 0.0, angle_increment = 0.0, range_min = 0.0, range_max = 0.0;
+  double stamp = 0.0;            ///< time of beam 0 [s]
+  double time_increment = 0.0;   ///< [s]
+  std::vector<std::pair<int, int>> segments;           ///< beam ranges of the split's segments
+  std::vector<std::pair<int, EdgeKind>> edges;
+};
+
+class SweepAssembler {
+ public:
+  /// Pose of the chain's base frame in the assembly frame at time t; false when unknown (a tf gap).
+  using BasePose = std::function<bool(double t, Eigen::Isometry3d& pose)>;
+
+  SweepAssembler(const SweepParams& params, const TiltChain& chain, BasePose base_pose = nullptr);
+  void setParams(const SweepParams& p);
+
+  void addJoint(double t, double q);
+  /// Queues a scan line; it is put in 3D once the joint states cover its last beam.
+  void addLine(LineInput line, double arrival);
+  /// Processes what it can; true when a sweep finished (in `out`). Call until false.
+  bool poll(double now, SweepResult& out);
+
+  const SweepCounters& counters() const { return counters_; }
+  /// Lines waiting for joint states.
+  std::size_t pending() const { return queue_.size(); }
+  /// The last warning (why a line or sweep was dropped), for throttled logs.
+  const std::string& lastWarning() const { return warning_; }
+
+ private:
+  bool process(const LineInput& in);
+  bool finishSweep(double end, SweepResult& out);
+  void beginSweep(double start);
+
+  SweepParams p_;
+  TiltChain chain_;
+  BasePose base_pose_;
+  JointBuffer joints_;
+  std::deque<std::pair<LineInput, double>> queue_;
+  std::deque<double> reversals_;
+  int direction_ = 0;
+  bool have_extreme_ = false;
+  double last_mid_ = -1e300, line_period_ = 0.025;
+  double extreme_q_ = 0.0, extreme_t_ = 0.0, last_joint_t_ = -1e300;
+  ScanLineGrouper grouper_;
+  bool in_sweep_ = false;
+  SweepResult current_;
+  double last_line_stamp_ = -1e300;
+  std::uint32_t next_id_ = 0;
+  SweepCounters counters_;
+  std::string warning_;
+};
+
+}  // namespace core
+}  // namespace tilt_laser_perception

@@ -1,0 +1,331 @@
+#include "tilt_laser_perception/core/grouping.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+namespace tilt_laser_perception {
+namespace core {
+
+namespace {
+constexpr double kDeg = M_PI / 180.0;
+
+/// Area of a polygon given in the plane (u, v) coordinates of a fit.
+double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
+  if (poly.size() < 3) return 0.0;
+  const Eigen::Vector3d u = f.normal.unitOrthogonal();
+  const Eigen::Vector3d v = f.normal.cross(u);
+  double a = 0.0;
+  for (std::size_t i = 0; i < poly.size(); ++i) {
+    const Eigen::Vector3d& p = poly[i];
+    const Eigen::Vector3d& q = poly[(i + 1) % poly.size()];
+    a += p.dot(u) * q.dot(v) - q.dot(u) * p.dot(v);
+  }
+  return 0.5 * std::abs(a);
+}
+
+double segmentDistance(const Segment3& a, const Segment3& b) {
+  // Smallest distance between the end points and centroids: enough to tell neighbours from strangers.
+  const Eigen::Vector3d pa[3] = {a.start, a.end, a.moments.mean()};
+  const Eigen::Vector3d pb[3] = {b.start, b.end, b.moments.mean()};
+  double d = 1e300;
+  for (const auto& x : pa)
+    for (const auto& y : pb) d = std::min(d, (x - y).norm());
+  return d;
+}
+}  // namespace
+
+std::string GroupingParams::validate() const {
+  std::ostringstream s;
+  if (!(dist_min > 0.0)) s << "dist_min must be > 0";
+  else if (!(dist_ratio >= 0.0)) s << "dist_ratio must be >= 0";
+  else if (!(angle_deg > 0.0 && angle_deg < 90.0)) s << "angle_deg must be in (0, 90)";
+  else if (!(merge_angle_deg > 0.0 && merge_angle_deg < 90.0)) s << "merge_angle_deg must be in (0, 90)";
+  else if (max_line_gap < 1) s << "max_line_gap must be >= 1";
+  else if (min_segments < 1) s << "min_segments must be >= 1";
+  return s.str();
+}
+
+void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
+  sensor_ = sensor;
+  segs_.clear();
+  seg_region_.clear();
+  regions_.clear();
+  open_.clear();
+  seg_plane_.clear();
+}
+
+bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) const {
+  const double thr = p_.threshold(s.range);
+  // A neighbour: its nearest member of the last lines is close.
+  double near = 1e300;
+  for (auto it = r.members.rbegin(); it != r.members.rend(); ++it) {
+    const Segment3& m = segs_[*it];
+    if (m.line < s.line - p_.max_line_gap) break;
+    near = std::min(near, segmentDistance(m, s));
+  }
+  if (near > p_.seed_gap + 0.05 * s.range) return false;
+  const bool planar = r.last_line > r.first_line && r.fit.spread(1) > 0.02;
+  if (planar) {
+    const double d1 = std::abs(r.fit.normal.dot(s.start) - r.fit.offset);
+    const double d2 = std::abs(r.fit.normal.dot(s.end) - r.fit.offset);
+    const double dc = std::abs(r.fit.normal.dot(s.moments.mean()) - r.fit.offset);
+    if (std::max(d1, d2) > 1.5 * thr || dc > std::max(p_.centroid_min, p_.centroid_ratio * s.range)) return false;
+    if (s.length() > 0.15 && std::abs((s.end - s.start).normalized().dot(r.fit.normal)) > std::sin(p_.angle_deg * kDeg))
+      return false;
+    score = std::max(d1, d2) / thr;
+    return true;
+  }
+  // A seed: two parallel lines always share a plane, so they must lie side by
+  // side (overlap in beam index by half the shorter), not end to end.
+  bool side_by_side = false;
+  for (int mi : r.members) {
+    const Segment3& m = segs_[mi];
+    if (m.line >= s.line) continue;
+    const int ov = std::min(m.last, s.last) - std::max(m.first, s.first) + 1;
+    side_by_side = side_by_side || ov >= 0.5 * std::min(m.last - m.first + 1, s.last - s.first + 1);
+  }
+  if (!side_by_side) return false;
+  Moments3 m = r.moments;
+  m += s.moments;
+  const PlaneFit f = fitPlane(m);
+  if (f.spread(1) < 0.01 || f.rms > 0.5 * thr) return false;
+  score = f.rms / (0.5 * thr);
+  return true;
+}
+
+bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
+  if (std::abs(a.fit.normal.dot(b.fit.normal)) < std::cos(p_.merge_angle_deg * kDeg)) return false;
+  const double thr = p_.threshold(std::min((a.fit.centroid - sensor_).norm(), (b.fit.centroid - sensor_).norm()));
+  if (std::abs(a.fit.normal.dot(b.fit.centroid) - a.fit.offset) > thr) return false;
+  if (std::abs(b.fit.normal.dot(a.fit.centroid) - b.fit.offset) > thr) return false;
+  Moments3 m = a.moments;
+  m += b.moments;
+  return fitPlane(m).rms < 0.5 * thr;
+}
+
+void ScanLineGrouper::absorb(int into, int from) {
+  Region& a = regions_[into];
+  Region& b = regions_[from];
+  a.moments += b.moments;
+  for (int m : b.members) seg_region_[m] = into;
+  a.members.insert(a.members.end(), b.members.begin(), b.members.end());
+  std::sort(a.members.begin(), a.members.end());  // segment indices grow with the line
+  a.first_line = std::min(a.first_line, b.first_line);
+  a.last_line = std::max(a.last_line, b.last_line);
+  a.fit = fitPlane(a.moments);
+  b.dead = true;
+  b.parent = into;
+  b.members.clear();
+}
+
+void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
+  if (line.empty()) return;
+  const int l = line.front().line;
+  for (const Segment3& s : line) {
+    const int idx = static_cast<int>(segs_.size());
+    segs_.push_back(s);
+    seg_region_.push_back(-1);
+    if (s.moments.n < p_.min_points) continue;  // too few points to judge: left out
+    std::vector<std::pair<double, int>> matches;
+    for (int ri : open_) {
+      Region& r = regions_[ri];
+      if (r.dead) continue;
+      // Overlap in beam index with a member of the previous lines.
+      bool overlap = false;
+      for (auto it = r.members.rbegin(); it != r.members.rend() && !overlap; ++it) {
+        const Segment3& m = segs_[*it];
+        if (m.line >= l) continue;
+        if (m.line < l - p_.max_line_gap) break;
+        overlap = m.first <= s.last + p_.beam_slack && s.first <= m.last + p_.beam_slack;
+      }
+      double score = 0.0;
+      if (overlap && fits(r, s, score)) matches.emplace_back(score, ri);
+    }
+    if (matches.empty()) {
+      Region r;
+      r.moments = s.moments;
+      r.members = {idx};
+      r.first_line = r.last_line = l;
+      r.fit = fitPlane(r.moments);
+      seg_region_[idx] = static_cast<int>(regions_.size());
+      open_.push_back(static_cast<int>(regions_.size()));
+      regions_.push_back(r);
+      continue;
+    }
+    std::sort(matches.begin(), matches.end());
+    const int best = matches[0].second;
+    Region& r = regions_[best];
+    r.moments += s.moments;
+    r.members.push_back(idx);
+    r.last_line = l;
+    r.fit = fitPlane(r.moments);
+    seg_region_[idx] = best;
+    // The segment bridges planes that agree: they are one.
+    for (std::size_t k = 1; k < matches.size(); ++k) {
+      const int other = matches[k].second;
+      if (!regions_[other].dead && planesAgree(regions_[best], regions_[other])) absorb(best, other);
+    }
+  }
+  open_.erase(std::remove_if(open_.begin(), open_.end(),
+                             [&](int ri) { return regions_[ri].dead || regions_[ri].last_line < l - p_.max_line_gap; }),
+              open_.end());
+}
+
+void ScanLineGrouper::finish(std::vector<Plane>& planes) {
+  planes.clear();
+  open_.clear();
+  // Planes that meet and agree merge (a floor cut in two by a box, a plane that restarted after a gap).
+  bool merged = true;
+  while (merged) {
+    merged = false;
+    for (std::size_t a = 0; a < regions_.size() && !merged; ++a) {
+      if (regions_[a].dead || regions_[a].members.size() < 2) continue;
+      for (std::size_t b = a + 1; b < regions_.size() && !merged; ++b) {
+        if (regions_[b].dead || regions_[b].members.size() < 2) continue;
+        const Region& ra = regions_[a];
+        const Region& rb = regions_[b];
+        if (ra.first_line > rb.last_line + p_.max_line_gap + 1 || rb.first_line > ra.last_line + p_.max_line_gap + 1)
+          continue;
+        if (!planesAgree(ra, rb)) continue;
+        double near = 1e300;
+        for (int i : ra.members)
+          for (int j : rb.members)
+            if (std::abs(segs_[i].line - segs_[j].line) <= p_.max_line_gap + 1)
+              near = std::min(near, segmentDistance(segs_[i], segs_[j]));
+        const double range = (ra.fit.centroid - sensor_).norm();
+        if (near > p_.seed_gap + 0.05 * range) continue;
+        absorb(static_cast<int>(a), static_cast<int>(b));
+        merged = true;
+      }
+    }
+  }
+  // A segment on a crease fits the planes on both sides; the first to come
+  // took it. Give each boundary segment to the neighbouring plane it lies
+  // nearer to, if that plane accepts it.
+  for (std::size_t si = 0; si < segs_.size(); ++si) {
+    const int ri = seg_region_[si];
+    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3) continue;
+    Region& own = regions_[ri];
+    const Segment3& s = segs_[si];
+    if (s.line != own.first_line && s.line != own.last_line) continue;
+    const Eigen::Vector3d c = s.moments.mean();
+    const double d_own = std::abs(own.fit.normal.dot(c) - own.fit.offset);
+    int best = -1;
+    double best_d = d_own;
+    for (std::size_t rj = 0; rj < regions_.size(); ++rj) {
+      const Region& o = regions_[rj];
+      if (static_cast<int>(rj) == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
+      if (s.line < o.first_line - 1 || s.line > o.last_line + 1) continue;
+      const double d = std::abs(o.fit.normal.dot(c) - o.fit.offset);
+      if (d >= best_d || d > std::max(p_.centroid_min, p_.centroid_ratio * s.range)) continue;
+      bool overlap = false;
+      for (int mi : o.members) {
+        const Segment3& m = segs_[mi];
+        overlap = overlap || (std::abs(m.line - s.line) <= 1 && m.first <= s.last && s.first <= m.last);
+      }
+      if (overlap) {
+        best = static_cast<int>(rj);
+        best_d = d;
+      }
+    }
+    if (best < 0) continue;
+    Region& to = regions_[best];
+    own.members.erase(std::remove(own.members.begin(), own.members.end(), static_cast<int>(si)), own.members.end());
+    own.moments = Moments3();
+    for (int mi : own.members) own.moments += segs_[mi].moments;
+    own.fit = fitPlane(own.moments);
+    own.first_line = segs_[own.members.front()].line;
+    own.last_line = segs_[own.members.back()].line;
+    to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), static_cast<int>(si)), static_cast<int>(si));
+    to.moments += s.moments;
+    to.fit = fitPlane(to.moments);
+    to.first_line = std::min(to.first_line, s.line);
+    to.last_line = std::max(to.last_line, s.line);
+    seg_region_[si] = best;
+  }
+
+  seg_plane_.assign(segs_.size(), -1);
+  for (const Region& r : regions_) {
+    if (r.dead || static_cast<int>(r.members.size()) < p_.min_segments || r.last_line == r.first_line) continue;
+    Plane p;
+    p.fit = fitPlane(r.moments);
+    if (p.fit.normal.dot(sensor_ - p.fit.centroid) < 0.0) {
+      p.fit.normal = -p.fit.normal;
+      p.fit.offset = -p.fit.offset;
+    }
+    p.members = r.members;
+    p.segments = static_cast<int>(r.members.size());
+    p.points = static_cast<int>(r.moments.n);
+    buildPolygon(r, p);
+    if (p.area < p_.min_area) continue;
+    p.id = static_cast<int>(planes.size());
+    for (int m : p.members) seg_plane_[m] = p.id;
+    planes.push_back(std::move(p));
+  }
+}
+
+void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
+  const PlaneFit& f = out.fit;
+  const auto onPlane = [&](const Eigen::Vector3d& x) { return Eigen::Vector3d(x - (f.normal.dot(x) - f.offset) * f.normal); };
+  // Members by line, each line's members by beam.
+  std::map<int, std::vector<const Segment3*>> lines;
+  for (int m : r.members) lines[segs_[m].line].push_back(&segs_[m]);
+  for (auto& kv : lines)
+    std::sort(kv.second.begin(), kv.second.end(), [](const Segment3* a, const Segment3* b) { return a->first < b->first; });
+  // Outer boundary: where each line enters the plane, then back along where it leaves.
+  std::vector<Eigen::Vector3d> left, right;
+  for (const auto& kv : lines) {
+    left.push_back(onPlane(kv.second.front()->start));
+    right.push_back(onPlane(kv.second.back()->end));
+  }
+  out.boundary = left;
+  out.boundary.insert(out.boundary.end(), right.rbegin(), right.rend());
+  double area = polygonArea(out.boundary, f);
+  // Holes: gaps inside lines, chained across lines while they overlap in beam index.
+  struct Gap {
+    int line, first, last;
+    Eigen::Vector3d a, b;
+  };
+  std::vector<std::vector<Gap>> chains;
+  std::vector<int> open_chains;
+  for (const auto& kv : lines) {
+    std::vector<int> next_open;
+    const auto& segs = kv.second;
+    for (std::size_t i = 0; i + 1 < segs.size(); ++i) {
+      Gap g{kv.first, segs[i]->last, segs[i + 1]->first, onPlane(segs[i]->end), onPlane(segs[i + 1]->start)};
+      int chain = -1;
+      for (int c : open_chains) {
+        const Gap& prev = chains[c].back();
+        if (prev.line >= kv.first - p_.max_line_gap && prev.first <= g.last && g.first <= prev.last) {
+          chain = c;
+          break;
+        }
+      }
+      if (chain < 0) {
+        chain = static_cast<int>(chains.size());
+        chains.emplace_back();
+      }
+      chains[chain].push_back(g);
+      next_open.push_back(chain);
+    }
+    for (int c : open_chains)
+      if (std::find(next_open.begin(), next_open.end(), c) == next_open.end() &&
+          chains[c].back().line >= kv.first - p_.max_line_gap)
+        next_open.push_back(c);
+    open_chains = next_open;
+  }
+  for (const auto& c : chains) {
+    if (c.size() < 2) continue;  // a slit in one line: no hole
+    std::vector<Eigen::Vector3d> hole;
+    for (const Gap& g : c) hole.push_back(g.a);
+    for (auto it = c.rbegin(); it != c.rend(); ++it) hole.push_back(it->b);
+    area -= polygonArea(hole, f);
+    out.holes.push_back(std::move(hole));
+  }
+  out.area = std::max(0.0, area);
+}
+
+}  // namespace core
+}  // namespace tilt_laser_perception

@@ -1,0 +1,252 @@
+#include "tilt_laser_perception/core/sweep.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace tilt_laser_perception {
+namespace core {
+
+namespace {
+double cpuNow() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+}  // namespace
+
+bool JointBuffer::add(double t, double q) {
+  if (!samples_.empty() && t <= samples_.back().first) return false;
+  samples_.emplace_back(t, q);
+  while (samples_.size() > 2 && samples_.front().first < t - keep_) samples_.pop_front();
+  return true;
+}
+
+bool JointBuffer::at(double t, double& q) const {
+  if (samples_.empty() || t < samples_.front().first || t > samples_.back().first) return false;
+  auto it = std::lower_bound(samples_.begin(), samples_.end(), t,
+                             [](const std::pair<double, double>& s, double v) { return s.first < v; });
+  if (it->first == t) {
+    q = it->second;
+    return true;
+  }
+  const auto& b = *it;
+  const auto& a = *(it - 1);
+  if (b.first - a.first > max_gap_) return false;
+  q = a.second + (t - a.first) / (b.first - a.first) * (b.second - a.second);
+  return true;
+}
+
+SweepAssembler::SweepAssembler(const SweepParams& params, const TiltChain& chain, BasePose base_pose)
+    : p_(params), chain_(chain), base_pose_(std::move(base_pose)), joints_(params.max_joint_gap), grouper_(params.grouping) {}
+
+void SweepAssembler::setParams(const SweepParams& p) {
+  p_ = p;
+  joints_ = JointBuffer(p.max_joint_gap);
+  grouper_.setParams(p.grouping);
+}
+
+void SweepAssembler::addJoint(double t, double q) {
+  if (!joints_.add(t, q)) {
+    ++counters_.joints_out_of_order;
+    warning_ = "joint state out of order: dropped";
+    return;
+  }
+  last_joint_t_ = t;
+  // Reversals: the joint came back from an extreme by more than the hysteresis.
+  if (!have_extreme_) {
+    have_extreme_ = true;
+    extreme_q_ = q;
+    extreme_t_ = t;
+    return;
+  }
+  if (direction_ == 0) {
+    if (std::abs(q - extreme_q_) > p_.reversal_hysteresis) {
+      direction_ = q > extreme_q_ ? 1 : -1;
+      extreme_q_ = q;
+      extreme_t_ = t;
+    }
+    return;
+  }
+  if ((direction_ > 0 && q >= extreme_q_) || (direction_ < 0 && q <= extreme_q_)) {
+    extreme_q_ = q;
+    extreme_t_ = t;
+  } else if (std::abs(q - extreme_q_) > p_.reversal_hysteresis) {
+    reversals_.push_back(extreme_t_);
+    ++counters_.reversals;
+    direction_ = -direction_;
+    extreme_q_ = q;
+    extreme_t_ = t;
+  }
+}
+
+void SweepAssembler::addLine(LineInput line, double arrival) { queue_.emplace_back(std::move(line), arrival); }
+
+void SweepAssembler::beginSweep(double start) {
+  in_sweep_ = true;
+  current_ = SweepResult();
+  current_.id = next_id_;
+  current_.start = start;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  if (base_pose_) base_pose_(start, base);
+  grouper_.reset((base * chain_.laserPose(0.0)).translation());
+}
+
+bool SweepAssembler::finishSweep(double end, SweepResult& out) {
+  in_sweep_ = false;
+  const int n = static_cast<int>(current_.lines.size());
+  const bool too_many_dropped = current_.dropped_lines > p_.max_dropped_fraction * (n + current_.dropped_lines);
+  if (n < p_.min_lines || too_many_dropped) {
+    ++counters_.sweeps_dropped;
+    warning_ = "sweep dropped: " + std::to_string(n) + " lines, " + std::to_string(current_.dropped_lines) +
+               " dropped (missing joint states, poses or out of order)";
+    return false;
+  }
+  const double t0 = cpuNow();
+  grouper_.finish(current_.planes);
+  current_.finish_seconds = cpuNow() - t0;
+  current_.segments = grouper_.segments();
+  current_.segment_plane = grouper_.segmentPlane();
+  current_.end = end;
+  out = std::move(current_);
+  ++next_id_;
+  ++counters_.sweeps;
+  return true;
+}
+
+bool SweepAssembler::process(const LineInput& in) {
+  const double t0 = cpuNow();
+  const std::size_t n = in.ranges.size();
+  if (n < 2 || !(in.angle_increment > 0.0) || (!in.intensities.empty() && in.intensities.size() != n)) {
+    ++counters_.lines_bad;
+    warning_ = "malformed scan line: dropped";
+    return false;
+  }
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  if (base_pose_ && !base_pose_(in.stamp + 0.5 * (n - 1) * in.time_increment, base)) {
+    ++counters_.lines_no_pose;
+    warning_ = "no pose of the head at the scan's time (tf gap): line dropped";
+    return false;
+  }
+  SweepLine line;
+  line.stamp = in.stamp;
+  line.time_increment = in.time_increment;
+  line.points.resize(n);
+  line.tilt.resize(n);
+  line.intensities = in.intensities;
+  line.edges = in.edges;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<Eigen::Vector3d> pts(n);
+  std::vector<double> rng(n);
+  double q_mid = 0.0;
+  const bool have_mid = joints_.at(in.stamp + 0.5 * (n - 1) * in.time_increment, q_mid);
+  for (std::size_t i = 0; i < n; ++i) {
+    double q = q_mid;
+    if (!(p_.per_beam ? joints_.at(in.stamp + i * in.time_increment, q) : have_mid)) {
+      ++counters_.lines_no_joint;
+      warning_ = "no joint state at a beam's time (gap or late): line dropped";
+      return false;
+    }
+    line.tilt[i] = static_cast<float>(q);
+    const double r = in.ranges[i];
+    rng[i] = r;
+    if (!(std::isfinite(r) && r >= in.range_min && r <= in.range_max)) {
+      line.points[i] = Eigen::Vector3f(nan, nan, nan);
+      pts[i] = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+      continue;
+    }
+    const double a = in.angle_min + i * in.angle_increment;
+    pts[i] = base * chain_.laserPose(q) * Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0.0);
+    line.points[i] = pts[i].cast<float>();
+  }
+  const int index = static_cast<int>(current_.lines.size());
+  std::vector<Segment3> segs;
+  segs.reserve(in.segments.size());
+  for (const auto& [first, last] : in.segments) {
+    if (first < 0 || last >= static_cast<int>(n) || last < first) continue;
+    Segment3 s;
+    s.line = index;
+    s.first = first;
+    s.last = last;
+    double sum_r = 0.0;
+    for (int i = first; i <= last; ++i) {
+      if (!std::isfinite(pts[i].x())) continue;
+      s.moments.add(pts[i]);
+      sum_r += rng[i];
+    }
+    if (s.moments.n < 2) continue;
+    s.range = sum_r / s.moments.n;
+    // End points: the first and last points projected on the segment's own line.
+    int a = first, b = last;
+    while (a < b && !std::isfinite(pts[a].x())) ++a;
+    while (b > a && !std::isfinite(pts[b].x())) --b;
+    const Eigen::Vector3d c = s.moments.mean();
+    const Eigen::Vector3d d = (pts[b] - pts[a]).normalized();
+    s.start = c + d * d.dot(pts[a] - c);
+    s.end = c + d * d.dot(pts[b] - c);
+    segs.push_back(s);
+  }
+  grouper_.addLine(segs);
+  current_.lines.push_back(std::move(line));
+  current_.group_seconds += cpuNow() - t0;
+  ++counters_.lines;
+  return true;
+}
+
+bool SweepAssembler::poll(double now, SweepResult& out) {
+  while (!queue_.empty()) {
+    const LineInput& in = queue_.front().first;
+    const double last_beam = in.stamp + (in.ranges.empty() ? 0.0 : (in.ranges.size() - 1) * in.time_increment);
+    const double mid = 0.5 * (in.stamp + last_beam);
+    // A reversal before this line's middle ends the sweep in progress first.
+    if (!reversals_.empty() && reversals_.front() <= mid) {
+      const double r = reversals_.front();
+      reversals_.pop_front();
+      const bool had = in_sweep_;
+      SweepResult done;
+      const bool finished = had && finishSweep(r, done);
+      beginSweep(r);
+      if (finished) {
+        out = std::move(done);
+        return true;
+      }
+      continue;
+    }
+    if (joints_.latest() < last_beam) {
+      if (now - queue_.front().second <= p_.max_wait) return false;  // wait for joint states
+      ++counters_.lines_no_joint;
+      warning_ = "no joint states for a scan line within " + std::to_string(p_.max_wait).substr(0, 4) + " s: dropped";
+      if (in_sweep_) ++current_.dropped_lines;
+      queue_.pop_front();
+      continue;
+    }
+    if (in.stamp <= last_line_stamp_ || (in_sweep_ && mid < current_.start)) {
+      // Out of order, or late for the sweep it belongs to (already finished): never mixed into the next.
+      ++counters_.lines_out_of_order;
+      warning_ = "scan line out of order or too late for its sweep: dropped";
+      queue_.pop_front();
+      continue;
+    }
+    if (last_line_stamp_ > -1e299) line_period_ = in.stamp - last_line_stamp_;
+    last_line_stamp_ = in.stamp;
+    last_mid_ = mid;
+    if (in_sweep_ && !process(in)) ++current_.dropped_lines;
+    queue_.pop_front();
+  }
+  // The next line's middle will be past a known reversal: every line of the
+  // sweep is in, so finish now (the latency users feel).
+  if (!reversals_.empty() && in_sweep_ && last_mid_ + line_period_ > reversals_.front()) {
+    const double r = reversals_.front();
+    reversals_.pop_front();
+    SweepResult done;
+    const bool finished = finishSweep(r, done);
+    beginSweep(r);
+    if (finished) {
+      out = std::move(done);
+      return true;
+    }
+  } else if (!reversals_.empty() && !in_sweep_) {
+    beginSweep(reversals_.front());
+    reversals_.pop_front();
+  }
+  return false;
+}
+
+}  // namespace core
+}  // namespace tilt_laser_perception

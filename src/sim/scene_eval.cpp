@@ -1,0 +1,294 @@
+#include "tilt_laser_perception/sim/scene_eval.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+
+#include "tilt_laser_perception/dynamixel/mx64.hpp"
+#include "tilt_laser_perception/sim/evaluation.hpp"
+
+namespace tilt_laser_perception {
+namespace sim {
+
+namespace {
+double cpuNow() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+core::TiltChain chainOf(const HeadGeometry& g) {
+  core::TiltChain c;
+  c.base_to_joint = Eigen::Isometry3d::Identity();
+  c.base_to_joint.translation() = g.axis_origin;
+  c.base_to_joint.rotate(Eigen::AngleAxisd(g.tilt_offset, Eigen::Vector3d::UnitY()));
+  c.axis = Eigen::Vector3d::UnitY();
+  c.joint_to_laser = Eigen::Isometry3d::Identity();
+  c.joint_to_laser.translation() = g.laser_offset;
+  return c;
+}
+
+struct LineTruth {
+  std::vector<int> face;
+  std::vector<float> ranges;
+  std::vector<TrueEdge> edges;
+  std::vector<core::EdgePoint> found;
+};
+
+SweepEval judge(const Scene& scene, const core::SweepResult& sw, const std::map<double, LineTruth>& truth,
+                const std::map<double, double>& split_time, const SceneEvalOptions& o, double latency) {
+  SweepEval e;
+  e.lines = static_cast<int>(sw.lines.size());
+  e.planes = static_cast<int>(sw.planes.size());
+  // Points judged: valid returns within the radius; their true face and detected plane.
+  std::map<int, int> face_count, plane_count;
+  std::map<std::pair<int, int>, int> overlap;  // (plane, face)
+  std::vector<std::vector<int>> plane_of(sw.lines.size());
+  for (std::size_t li = 0; li < sw.lines.size(); ++li) plane_of[li].assign(sw.lines[li].points.size(), -1);
+  for (std::size_t si = 0; si < sw.segments.size(); ++si) {
+    const core::Segment3& s = sw.segments[si];
+    for (int i = s.first; i <= s.last; ++i) plane_of[s.line][i] = sw.segment_plane[si];
+  }
+  int edges_found = 0, edges_spurious = 0, edges_true = 0, edges_hit = 0;
+  for (std::size_t li = 0; li < sw.lines.size(); ++li) {
+    const auto it = truth.find(sw.lines[li].stamp);
+    if (it == truth.end()) continue;
+    const LineTruth& t = it->second;
+    const EdgeScore es = scoreEdges(t.found, t.edges);
+    edges_found += es.edge_points;
+    edges_spurious += es.spurious;
+    edges_true += es.true_edges;
+    edges_hit += es.found;
+    for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
+      const Eigen::Vector3f& p = sw.lines[li].points[i];
+      if (!std::isfinite(p.x()) || std::hypot(p.x(), p.y()) > o.eval_radius) continue;
+      const int f = t.face[i];
+      const int d = plane_of[li][i];
+      if (f >= 0) ++face_count[f];
+      if (d >= 0) ++plane_count[d];
+      if (f >= 0 && d >= 0) ++overlap[{d, f}];
+    }
+  }
+  e.edge_precision = edges_found ? 1.0 - static_cast<double>(edges_spurious) / edges_found : 1.0;
+  e.edge_recall = edges_true ? static_cast<double>(edges_hit) / edges_true : 1.0;
+
+  std::set<int> expected;
+  for (const auto& [f, n] : face_count)
+    if (n >= o.min_face_points && scene.faces[f].area() >= o.min_face_area) expected.insert(f);
+  e.true_faces = static_cast<int>(expected.size());
+  const double T = o.overlap;
+  std::set<int> faces_done, planes_done;
+  double nerr = 0.0, oerr = 0.0;
+  for (const auto& [key, n] : overlap) {
+    const auto [d, f] = key;
+    if (n >= T * plane_count[d] && n >= T * face_count[f] && expected.count(f)) {
+      ++e.correct;
+      faces_done.insert(f);
+      planes_done.insert(d);
+      const Face& face = scene.faces[f];
+      const core::Plane& pl = sw.planes[d];
+      nerr += std::acos(std::min(1.0, std::abs(pl.fit.normal.dot(face.normal)))) * 180.0 / M_PI;
+      oerr += std::abs(face.normal.dot(pl.fit.centroid - face.origin));
+    }
+  }
+  if (e.correct) {
+    e.normal_err_deg = nerr / e.correct;
+    e.offset_err_m = oerr / e.correct;
+  }
+  // Over-segmentation: a face covered by several planes that lie mostly on it.
+  for (int f : expected) {
+    if (faces_done.count(f)) continue;
+    int sum = 0, parts = 0;
+    std::vector<int> ds;
+    for (const auto& [key, n] : overlap)
+      if (key.second == f && n >= T * plane_count[key.first]) {
+        sum += n;
+        ++parts;
+        ds.push_back(key.first);
+      }
+    if (parts >= 2 && sum >= T * face_count[f]) {
+      ++e.over;
+      faces_done.insert(f);
+      planes_done.insert(ds.begin(), ds.end());
+    }
+  }
+  // Under-segmentation: a plane covering several faces that lie mostly in it.
+  for (const auto& [d, nd] : plane_count) {
+    if (planes_done.count(d)) continue;
+    int sum = 0, parts = 0;
+    std::vector<int> fs;
+    for (const auto& [key, n] : overlap)
+      if (key.first == d && n >= T * face_count[key.second]) {
+        sum += n;
+        ++parts;
+        fs.push_back(key.second);
+      }
+    if (parts >= 2 && sum >= T * nd) {
+      ++e.under;
+      planes_done.insert(d);
+      for (int f : fs) faces_done.insert(f);
+    }
+  }
+  for (int f : expected)
+    if (!faces_done.count(f)) {
+      ++e.missed;
+      // Where its points went: "object/label (N points: plane:count ..., none:count)".
+      std::string where = scene.faces[f].object + "/" + scene.faces[f].label + " (" +
+                          std::to_string(face_count[f]) + " points:";
+      int assigned = 0;
+      for (const auto& [key, n] : overlap)
+        if (key.second == f) {
+          where += " plane" + std::to_string(key.first) + "[" + std::to_string(plane_count[key.first]) +
+                   "]:" + std::to_string(n);
+          assigned += n;
+        }
+      where += " none:" + std::to_string(face_count[f] - assigned) + ")";
+      e.missed_faces.push_back(where);
+    }
+  // Noise: planes that are none of the above and do not mostly lie on a face too small to be expected.
+  for (const auto& [d, nd] : plane_count) {
+    if (planes_done.count(d) || nd < o.min_face_points) continue;
+    int best = 0, best_f = -1;
+    for (const auto& [key, n] : overlap)
+      if (key.first == d && n > best) {
+        best = n;
+        best_f = key.second;
+      }
+    if (best_f >= 0 && !expected.count(best_f) && best >= T * nd) continue;
+    ++e.noise;
+  }
+
+  // Height map against the true one, within the radius.
+  core::HeightMapGrid grid;
+  const double t0 = cpuNow();
+  core::buildHeightMap(sw, o.heightmap, grid);
+  latency += cpuNow() - t0;
+  const core::HeightMapParams& hp = o.heightmap;
+  const std::vector<float> truth_h = trueHeightMap(scene, hp.origin_x, hp.origin_y, hp.resolution, hp.width, hp.height);
+  double se = 0.0;
+  int known = 0, expected_cells = 0;
+  for (int iy = 0; iy < hp.height; ++iy)
+    for (int ix = 0; ix < hp.width; ++ix) {
+      const double x = hp.origin_x + (ix + 0.5) * hp.resolution, y = hp.origin_y + (iy + 0.5) * hp.resolution;
+      if (std::hypot(x, y) > o.heightmap_radius) continue;
+      const std::size_t c = grid.index(ix, iy);
+      if (std::isnan(truth_h[c])) continue;
+      ++expected_cells;
+      if (std::isnan(grid.heights[c])) continue;
+      ++known;
+      se += (grid.heights[c] - truth_h[c]) * (grid.heights[c] - truth_h[c]);
+    }
+  e.heightmap_rmse_m = known ? std::sqrt(se / known) : 0.0;
+  e.heightmap_coverage = expected_cells ? static_cast<double>(known) / expected_cells : 0.0;
+  double split = 0.0;
+  for (const auto& line : sw.lines) {
+    const auto it = split_time.find(line.stamp);
+    if (it != split_time.end()) split += it->second;
+  }
+  e.split_ms = split * 1e3;
+  e.group_ms = (sw.group_seconds + latency) * 1e3;
+  e.latency_ms = latency * 1e3;
+  return e;
+}
+}  // namespace
+
+std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
+  const Scene scene = loadScene(o.scene);
+  const HeadGeometry head = HeadGeometry::load(o.head_file.empty() ? configDirectory() + "/head.yaml" : o.head_file);
+  ServoModel servo(o.profile.min_angle, 0.0);
+  SweepController sweep(servo, o.profile);
+  HeadSimulator head_sim(scene, head, servo, o.noise, o.seed);
+  const LidarModel& m = head_sim.model();
+  core::SweepAssembler assembler(o.sweep, chainOf(head));
+  core::ScanSplitter splitter(o.split);
+  core::SplitResult split;
+  HeadScan hs;
+  std::map<double, LineTruth> truth;
+  std::map<double, double> split_time;
+  std::vector<SweepEval> out;
+  double next_joint = 0.0, next_scan = 0.0;
+  const double joint_period = 1.0 / o.joint_rate;
+  for (double t = 0.0; static_cast<int>(out.size()) < o.sweeps && t < 600.0; t += 0.001) {
+    sweep.update(t);
+    if (t + 1e-9 >= next_joint) {
+      double q = servo.state(t).position;
+      if (o.quantize_joint) q = dynamixel::positionToRad(dynamixel::radToPosition(q));
+      assembler.addJoint(t, q);
+      next_joint += joint_period;
+    }
+    if (t + 1e-9 >= next_scan + m.scan_period) {
+      head_sim.scan(next_scan, hs);
+      const double s0 = cpuNow();
+      splitter.split(hs.scan.view(), split);
+      const double st = cpuNow() - s0;
+      core::LineInput in;
+      in.ranges = hs.scan.ranges;
+      in.angle_min = m.angleMin();
+      in.angle_increment = m.angle_increment;
+      in.range_min = m.range_min;
+      in.range_max = m.range_max;
+      in.stamp = next_scan;
+      in.time_increment = m.timeIncrement();
+      for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
+      for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
+      LineTruth lt{hs.scan.face, hs.scan.ranges, hs.scan.edges, split.edges};
+      truth[next_scan] = std::move(lt);
+      split_time[next_scan] = st;
+      assembler.addLine(std::move(in), t);
+      next_scan += m.scan_period;
+    }
+    core::SweepResult done;
+    while (assembler.poll(t, done)) {
+      out.push_back(judge(scene, done, truth, split_time, o, done.finish_seconds));
+      // Forget the truth of lines before this sweep.
+      truth.erase(truth.begin(), truth.lower_bound(done.start));
+    }
+  }
+  return out;
+}
+
+std::string evalCsvHeader() {
+  return "sweep,lines,planes,true_faces,correct,over,under,missed,noise,normal_err_deg,offset_err_m,edge_precision,"
+         "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms";
+}
+
+std::string evalCsvRow(int sweep, const SweepEval& e) {
+  char buf[512];
+  std::snprintf(buf, sizeof(buf), "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f", sweep,
+                e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise, e.normal_err_deg,
+                e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m, e.heightmap_coverage, e.split_ms,
+                e.group_ms, e.latency_ms);
+  return buf;
+}
+
+std::string evalSummary(const std::vector<SweepEval>& ev) {
+  SweepEval s;
+  const double n = ev.empty() ? 1.0 : static_cast<double>(ev.size());
+  double correct = 0, over = 0, under = 0, missed = 0, noise = 0;
+  for (const SweepEval& e : ev) {
+    correct += e.correct;
+    over += e.over;
+    under += e.under;
+    missed += e.missed;
+    noise += e.noise;
+    s.normal_err_deg += e.normal_err_deg / n;
+    s.offset_err_m += e.offset_err_m / n;
+    s.edge_precision += e.edge_precision / n;
+    s.edge_recall += e.edge_recall / n;
+    s.heightmap_rmse_m += e.heightmap_rmse_m / n;
+    s.heightmap_coverage += e.heightmap_coverage / n;
+    s.split_ms += e.split_ms / n;
+    s.group_ms += e.group_ms / n;
+    s.latency_ms += e.latency_ms / n;
+  }
+  char buf[512];
+  std::snprintf(buf, sizeof(buf),
+                "correct=%.2f over=%.2f under=%.2f missed=%.2f noise=%.2f normal_err_deg=%.3f offset_err_m=%.4f "
+                "edge_precision=%.3f edge_recall=%.3f heightmap_rmse_m=%.4f heightmap_coverage=%.3f split_ms=%.2f "
+                "group_ms=%.2f latency_ms=%.3f",
+                correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
+                s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
+                s.latency_ms);
+  return buf;
+}
+
+}  // namespace sim
+}  // namespace tilt_laser_perception
