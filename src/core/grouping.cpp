@@ -78,13 +78,13 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) co
     return true;
   }
   // A seed: two parallel lines always share a plane, so they must lie side by
-  // side (overlap in beam index by half the shorter), not end to end.
+  // side, each overlapping the other in beam index by half its own length.
   bool side_by_side = false;
   for (int mi : r.members) {
     const Segment3& m = segs_[mi];
     if (m.line >= s.line) continue;
     const int ov = std::min(m.last, s.last) - std::max(m.first, s.first) + 1;
-    side_by_side = side_by_side || ov >= 0.5 * std::min(m.last - m.first + 1, s.last - s.first + 1);
+    side_by_side = side_by_side || ov >= 0.5 * std::max(m.last - m.first + 1, s.last - s.first + 1);
   }
   if (!side_by_side) return false;
   Moments3 m = r.moments;
@@ -211,7 +211,13 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     const Segment3& s = segs_[si];
     if (s.line != own.first_line && s.line != own.last_line) continue;
     const Eigen::Vector3d c = s.moments.mean();
-    const double d_own = std::abs(own.fit.normal.dot(c) - own.fit.offset);
+    // Its distance to its own plane fitted without it (it pulled that plane towards itself).
+    Moments3 rest = own.moments;
+    rest.n -= s.moments.n;
+    rest.s -= s.moments.s;
+    rest.ss -= s.moments.ss;
+    const PlaneFit own_fit = fitPlane(rest);
+    const double d_own = std::abs(own_fit.normal.dot(c) - own_fit.offset);
     int best = -1;
     double best_d = d_own;
     for (std::size_t rj = 0; rj < regions_.size(); ++rj) {
@@ -238,6 +244,47 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     own.fit = fitPlane(own.moments);
     own.first_line = segs_[own.members.front()].line;
     own.last_line = segs_[own.members.back()].line;
+    to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), static_cast<int>(si)), static_cast<int>(si));
+    to.moments += s.moments;
+    to.fit = fitPlane(to.moments);
+    to.first_line = std::min(to.first_line, s.line);
+    to.last_line = std::max(to.last_line, s.line);
+    seg_region_[si] = best;
+  }
+
+  // Late joins: pieces of a line that the split cut short (or that came before
+  // their plane was seeded) join a plane of their neighbourhood that they fit.
+  for (std::size_t si = 0; si < segs_.size(); ++si) {
+    const int ri = seg_region_[si];
+    if (ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() >= 2) continue;
+    const Segment3& s = segs_[si];
+    if (s.moments.n < 3) continue;
+    int best = -1;
+    double best_score = 1e300;
+    for (std::size_t rj = 0; rj < regions_.size(); ++rj) {
+      const Region& o = regions_[rj];
+      if (static_cast<int>(rj) == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
+      if (s.line < o.first_line - p_.max_line_gap || s.line > o.last_line + p_.max_line_gap) continue;
+      bool overlap = false;
+      for (int mi : o.members) {
+        const Segment3& m = segs_[mi];
+        overlap = overlap || (std::abs(m.line - s.line) <= p_.max_line_gap && m.first <= s.last + p_.beam_slack &&
+                              s.first <= m.last + p_.beam_slack);
+      }
+      double score = 0.0;
+      Segment3 probe = s;
+      probe.line = std::min(s.line, o.last_line + 1);  // fits() looks at the lines before the segment's
+      if (overlap && fits(o, probe, score) && score < best_score) {
+        best = static_cast<int>(rj);
+        best_score = score;
+      }
+    }
+    if (best < 0) continue;
+    if (ri >= 0 && !regions_[ri].dead) {  // a lone segment's region empties
+      regions_[ri].members.clear();
+      regions_[ri].dead = true;
+    }
+    Region& to = regions_[best];
     to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), static_cast<int>(si)), static_cast<int>(si));
     to.moments += s.moments;
     to.fit = fitPlane(to.moments);
