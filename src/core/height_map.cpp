@@ -18,10 +18,18 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   out.floor_height = std::numeric_limits<double>::quiet_NaN();
 
   const double cos_max = std::cos(p.max_slope_deg * M_PI / 180.0);
-  std::vector<char> walkable(sweep.planes.size(), 0);
+  std::vector<char> walkable(sweep.planes.size(), 0), step_face(sweep.planes.size(), 0);
   double floor_area = 0.0;
   for (const Plane& pl : sweep.planes) {
-    if (std::abs(pl.fit.normal.z()) < cos_max) continue;
+    if (std::abs(pl.fit.normal.z()) < cos_max) {
+      double zmin = 1e300, zmax = -1e300;
+      for (const Eigen::Vector3d& v : pl.boundary) {
+        zmin = std::min(zmin, v.z());
+        zmax = std::max(zmax, v.z());
+      }
+      step_face[pl.id] = zmax - zmin <= p.max_step_height;
+      continue;
+    }
     walkable[pl.id] = 1;
     if (pl.area > floor_area) {
       floor_area = pl.area;
@@ -91,10 +99,14 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       for (int i = s.first; i <= s.last; ++i) point_plane[i] = pid;
     }
     for (std::size_t i = 0; i < line.points.size(); ++i) {
-      const Eigen::Vector3f& pt = line.points[i];
-      if (!std::isfinite(pt.x())) continue;
+      if (!std::isfinite(line.points[i].x())) continue;
       const int pid = point_plane[i];
-      if (pid >= 0 && walkable[pid]) continue;
+      if (pid >= 0 && (walkable[pid] || step_face[pid])) continue;
+      // A point of a plane (a wall, a box's side) is put on its plane: range
+      // noise would otherwise spill it into the cells in front.
+      Eigen::Vector3d q = line.points[i].cast<double>();
+      if (pid >= 0) q -= (sweep.planes[pid].fit.normal.dot(q) - sweep.planes[pid].fit.offset) * sweep.planes[pid].fit.normal;
+      const Eigen::Vector3f pt = q.cast<float>();
       const int ix = static_cast<int>(std::floor((pt.x() - p.origin_x) / p.resolution));
       const int iy = static_cast<int>(std::floor((pt.y() - p.origin_y) / p.resolution));
       if (ix < 0 || iy < 0 || ix >= p.width || iy >= p.height) continue;

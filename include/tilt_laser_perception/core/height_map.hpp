@@ -3,7 +3,9 @@
  * @brief A 2.5D height map for footstep planning from the planes and points of
  *        a sweep: cells inside a (near-)horizontal plane's polygon take the
  *        plane's height there; points outside such planes mark obstacles with
- *        their top height; the rest stays unknown (NaN). ROS-free; [m].
+ *        their top height, except those of steep planes no taller than a
+ *        step (risers: the treads around them already tell the height); the
+ *        rest stays unknown (NaN). ROS-free; [m].
  */
 #pragma once
 
@@ -26,6 +28,7 @@ struct HeightMapParams {
   double max_slope_deg = 15.0;       ///< planes steeper than this are not walkable surfaces
   double floor_tolerance = 0.03;     ///< cells within this of the floor's height are floor [m]
   double obstacle_min_height = 0.05; ///< points this far above a cell's surface make it an obstacle [m]
+  double max_step_height = 0.2;      ///< steep planes no taller than this are step faces (risers), not obstacles [m]
 };
 
 struct HeightMapGrid {
