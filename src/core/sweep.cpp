@@ -134,8 +134,8 @@ bool SweepAssembler::process(const LineInput& in) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   std::vector<Eigen::Vector3d> pts(n);
   std::vector<double> rng(n);
-  double q_mid = 0.0;
-  const bool have_mid = joints_.at(in.stamp + 0.5 * (n - 1) * in.time_increment, q_mid);
+  double q_mid = 0.0;  // one angle for the whole line when per_beam is off: the angle at its stamp
+  const bool have_mid = joints_.at(in.stamp, q_mid);
   for (std::size_t i = 0; i < n; ++i) {
     double q = q_mid;
     if (!(p_.per_beam ? joints_.at(in.stamp + i * in.time_increment, q) : have_mid)) {

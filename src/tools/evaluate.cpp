@@ -13,7 +13,7 @@ static void usage() {
   std::fprintf(stderr,
                "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--no-skew] [--fixed D]\n"
                "                [--verbose]\n"
-               "  --no-skew   one joint angle per scan line (its middle) instead of one per beam\n"
+               "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
                "  --verbose   list the faces each sweep missed\n");
 }

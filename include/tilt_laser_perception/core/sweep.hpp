@@ -53,7 +53,7 @@ struct SweepParams {
   double max_wait = 0.3;               ///< a scan line waits this long for joint states [s]
   double max_dropped_fraction = 0.1;   ///< a sweep with more dropped lines is dropped [1]
   int min_lines = 10;                  ///< shorter sweeps are dropped
-  bool per_beam = true;                ///< joint angle at every beam's time; false: one angle per line (its middle)
+  bool per_beam = true;                ///< joint angle at every beam's time; false: one per line, at its stamp (as tools that look up one tf per scan do)
   GroupingParams grouping;
 };
 
