@@ -25,3 +25,37 @@ void toMsg(const core::SplitResult& result, const core::SplitParams& params, con
 void segmentMarkers(const ScanSegments& segments, visualization_msgs::MarkerArray& markers);
 
 }  // namespace tilt_laser_perception
+
+#include <sensor_msgs/PointCloud2.h>
+#include <urdf/model.h>
+
+#include "tilt_laser_perception/HeightMap.h"
+#include "tilt_laser_perception/PlanePolygonArray.h"
+#include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/core/sweep.hpp"
+
+namespace tilt_laser_perception {
+
+/// The tilt chain from a URDF: the joint's parent link (whose pose comes from
+/// tf), the joint's origin and axis, and the fixed joints from its child link
+/// to `laser_frame`. False with a message when the joint is missing, not
+/// revolute, or a joint between it and the laser is not fixed.
+bool tiltChainFromUrdf(const urdf::Model& model, const std::string& joint, const std::string& laser_frame,
+                       core::TiltChain& chain, std::string& parent_link, std::string& error);
+
+/// Planes as messages (in the sweep's frame).
+void toMsg(const std::vector<core::Plane>& planes, PlanePolygonArray& msg);
+/// The height map as a message.
+void toMsg(const core::HeightMapGrid& grid, HeightMap& msg);
+/// The height map as a cloud of its known cells (x y z rgb, coloured by height).
+void heightMapCloud(const core::HeightMapGrid& grid, sensor_msgs::PointCloud2& cloud);
+/// The sweep as an organized cloud: a row per scan line, a column per beam;
+/// fields x y z intensity ring time (time since the sweep's start [s]); NaN where there was no return.
+void sweepCloud(const core::SweepResult& sweep, sensor_msgs::PointCloud2& cloud);
+/// The edge points of the sweep: x y z kind (1 jump, 2 occluded, 3 crease, 4 boundary).
+void edgeCloud(const core::SweepResult& sweep, sensor_msgs::PointCloud2& cloud);
+/// rviz markers: filled plane polygons (one colour per plane), outlines, normals and ids.
+void planeMarkers(const std::vector<core::Plane>& planes, const std_msgs::Header& header,
+                  visualization_msgs::MarkerArray& markers);
+
+}  // namespace tilt_laser_perception

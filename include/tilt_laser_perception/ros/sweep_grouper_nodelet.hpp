@@ -1,0 +1,66 @@
+/**
+ * @file sweep_grouper_nodelet.hpp
+ * @brief tilt_laser_perception/SweepGrouper: scan + scan_segments (exact time
+ *        sync) + joint_states + tf + robot_description in; for every finished
+ *        tilt sweep: planes, height_map, height_map_cloud, sweep_cloud,
+ *        edge_points and plane_markers. The work is core::SweepAssembler and
+ *        core::buildHeightMap.
+ */
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/time_synchronizer.h>
+#include <nodelet/nodelet.h>
+#include <ros/ros.h>
+#include <sensor_msgs/JointState.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "tilt_laser_perception/ScanSegments.h"
+#include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/core/sweep.hpp"
+
+namespace tilt_laser_perception {
+
+class SweepGrouperNodelet : public nodelet::Nodelet {
+ public:
+  ~SweepGrouperNodelet() override;
+
+ private:
+  void onInit() override;
+  bool setupChain();
+  void onScan(const sensor_msgs::LaserScanConstPtr& scan, const ScanSegmentsConstPtr& segments);
+  void onJoint(const sensor_msgs::JointStateConstPtr& js);
+  void pollSweeps();
+  void publish(const core::SweepResult& sweep);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void warn(const std::string& msg);
+
+  std::mutex mutex_;
+  std::unique_ptr<core::SweepAssembler> assembler_;
+  core::SweepParams sweep_params_;
+  core::HeightMapParams map_params_;
+  std::string frame_id_, joint_name_, laser_frame_, parent_link_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::LaserScan>> scan_sub_;
+  std::unique_ptr<message_filters::Subscriber<ScanSegments>> segments_sub_;
+  std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>> sync_;
+  ros::Subscriber joint_sub_;
+  ros::Publisher planes_pub_, map_pub_, map_cloud_pub_, sweep_cloud_pub_, edges_pub_, markers_pub_;
+  ros::Timer poll_timer_, diag_timer_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTime last_warn_;
+  std::string last_warning_, chain_error_;
+  unsigned long published_ = 0;
+  double last_latency_ms_ = 0.0, last_group_ms_ = 0.0;
+  std::size_t last_planes_ = 0;
+};
+
+}  // namespace tilt_laser_perception

@@ -1,0 +1,248 @@
+#include "tilt_laser_perception/ros/sweep_grouper_nodelet.hpp"
+
+#include <chrono>
+
+#include <boost/make_shared.hpp>
+#include <pluginlib/class_list_macros.hpp>
+#include <tf2_eigen/tf2_eigen.h>
+#include <urdf/model.h>
+
+#include "tilt_laser_perception/HeightMap.h"
+#include "tilt_laser_perception/PlanePolygonArray.h"
+#include "tilt_laser_perception/ros/conversions.hpp"
+
+namespace tilt_laser_perception {
+
+SweepGrouperNodelet::~SweepGrouperNodelet() {
+  poll_timer_.stop();
+  diag_timer_.stop();
+}
+
+void SweepGrouperNodelet::warn(const std::string& msg) {
+  // Throttled: a repeating problem is said every 5 s (and always counted in the diagnostics).
+  const ros::WallTime now = ros::WallTime::now();
+  if (msg == last_warning_ && (now - last_warn_).toSec() < 5.0) return;
+  last_warning_ = msg;
+  last_warn_ = now;
+  NODELET_WARN("%s", msg.c_str());
+}
+
+void SweepGrouperNodelet::onInit() {
+  ros::NodeHandle& nh = getNodeHandle();
+  ros::NodeHandle& pnh = getPrivateNodeHandle();
+  pnh.param<std::string>("frame_id", frame_id_, "base_footprint");
+  pnh.param<std::string>("joint_name", joint_name_, "head_tilt_joint");
+  pnh.param<std::string>("laser_frame", laser_frame_, "laser");
+  core::GroupingParams& g = sweep_params_.grouping;
+  pnh.param("plane_dist_min", g.dist_min, g.dist_min);
+  pnh.param("plane_dist_ratio", g.dist_ratio, g.dist_ratio);
+  pnh.param("plane_angle_deg", g.angle_deg, g.angle_deg);
+  pnh.param("merge_angle_deg", g.merge_angle_deg, g.merge_angle_deg);
+  pnh.param("min_plane_segments", g.min_segments, g.min_segments);
+  pnh.param("min_plane_area", g.min_area, g.min_area);
+  pnh.param("reversal_hysteresis", sweep_params_.reversal_hysteresis, sweep_params_.reversal_hysteresis);
+  pnh.param("max_joint_gap", sweep_params_.max_joint_gap, sweep_params_.max_joint_gap);
+  pnh.param("max_wait", sweep_params_.max_wait, sweep_params_.max_wait);
+  pnh.param("min_sweep_lines", sweep_params_.min_lines, sweep_params_.min_lines);
+  pnh.param("per_beam_tilt", sweep_params_.per_beam, true);
+  pnh.param("map_resolution", map_params_.resolution, map_params_.resolution);
+  double size_x = map_params_.width * map_params_.resolution, size_y = map_params_.height * map_params_.resolution;
+  pnh.param("map_size_x", size_x, size_x);
+  pnh.param("map_size_y", size_y, size_y);
+  pnh.param("map_origin_x", map_params_.origin_x, map_params_.origin_x);
+  pnh.param("map_origin_y", map_params_.origin_y, map_params_.origin_y);
+  pnh.param("map_max_slope_deg", map_params_.max_slope_deg, map_params_.max_slope_deg);
+  pnh.param("map_max_step_height", map_params_.max_step_height, map_params_.max_step_height);
+  const std::string problem = g.validate();
+  if (!problem.empty()) {
+    NODELET_ERROR("invalid grouping parameters (%s): using the defaults", problem.c_str());
+    sweep_params_.grouping = core::GroupingParams();
+  }
+  if (!(map_params_.resolution > 0.001 && size_x > 0 && size_y > 0 && size_x / map_params_.resolution <= 4000 &&
+        size_y / map_params_.resolution <= 4000)) {
+    NODELET_ERROR("invalid height map size or resolution (at most 4000 x 4000 cells): using 4 m x 4 m at 1 cm");
+    map_params_ = core::HeightMapParams();
+    size_x = size_y = 4.0;
+  }
+  map_params_.width = static_cast<int>(std::lround(size_x / map_params_.resolution));
+  map_params_.height = static_cast<int>(std::lround(size_y / map_params_.resolution));
+
+  tf_buffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(10.0));
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+
+  planes_pub_ = nh.advertise<PlanePolygonArray>("planes", 2);
+  map_pub_ = nh.advertise<HeightMap>("height_map", 2);
+  map_cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("height_map_cloud", 2);
+  sweep_cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("sweep_cloud", 2);
+  edges_pub_ = nh.advertise<sensor_msgs::PointCloud2>("edge_points", 2);
+  markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("plane_markers", 2);
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+  diagnostics_->setHardwareID("none");
+  diagnostics_->add("sweep grouper", this, &SweepGrouperNodelet::diagnose);
+  diag_timer_ = nh.createTimer(ros::Duration(0.5), [this](const ros::TimerEvent&) { diagnostics_->update(); });
+
+  setupChain();
+  scan_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::LaserScan>>(nh, "scan", 50);
+  segments_sub_ = std::make_unique<message_filters::Subscriber<ScanSegments>>(nh, "scan_segments", 50);
+  sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>>(*scan_sub_,
+                                                                                                     *segments_sub_, 50);
+  sync_->registerCallback(boost::bind(&SweepGrouperNodelet::onScan, this, boost::placeholders::_1, boost::placeholders::_2));
+  joint_sub_ = nh.subscribe("joint_states", 500, &SweepGrouperNodelet::onJoint, this);
+  poll_timer_ = nh.createTimer(ros::Duration(0.05), [this](const ros::TimerEvent&) {
+    std::lock_guard<std::mutex> l(mutex_);
+    pollSweeps();
+  });
+}
+
+bool SweepGrouperNodelet::setupChain() {
+  std::string xml;
+  ros::NodeHandle nh = getNodeHandle();
+  if (!nh.getParam("robot_description", xml)) {
+    chain_error_ = "no robot_description parameter: waiting for it";
+    return false;
+  }
+  urdf::Model model;
+  if (!model.initString(xml)) {
+    chain_error_ = "robot_description is not a valid URDF";
+    return false;
+  }
+  core::TiltChain chain;
+  if (!tiltChainFromUrdf(model, joint_name_, laser_frame_, chain, parent_link_, chain_error_)) return false;
+  const auto base_pose = [this](double t, Eigen::Isometry3d& pose) {
+    try {
+      const auto tf = tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(t), ros::Duration(0.0));
+      pose = tf2::transformToEigen(tf);
+      return true;
+    } catch (const tf2::TransformException&) {
+      return false;
+    }
+  };
+  assembler_ = std::make_unique<core::SweepAssembler>(sweep_params_, chain, base_pose);
+  chain_error_.clear();
+  NODELET_INFO("SweepGrouper: %s -> %s (joint %s) -> %s, assembling in %s", parent_link_.c_str(),
+               joint_name_.c_str(), joint_name_.c_str(), laser_frame_.c_str(), frame_id_.c_str());
+  return true;
+}
+
+void SweepGrouperNodelet::onJoint(const sensor_msgs::JointStateConstPtr& js) {
+  std::lock_guard<std::mutex> l(mutex_);
+  if (!assembler_ && !setupChain()) {
+    warn(chain_error_);
+    return;
+  }
+  for (std::size_t i = 0; i < js->name.size() && i < js->position.size(); ++i)
+    if (js->name[i] == joint_name_) assembler_->addJoint(js->header.stamp.toSec(), js->position[i]);
+  pollSweeps();
+}
+
+void SweepGrouperNodelet::onScan(const sensor_msgs::LaserScanConstPtr& scan, const ScanSegmentsConstPtr& segs) {
+  std::lock_guard<std::mutex> l(mutex_);
+  if (!assembler_) return;
+  if (!scan->header.frame_id.empty() && scan->header.frame_id != laser_frame_)
+    warn("scan frame '" + scan->header.frame_id + "' is not ~laser_frame '" + laser_frame_ + "': using the URDF chain to '" +
+         laser_frame_ + "'");
+  core::LineInput in;
+  in.ranges = scan->ranges;
+  in.intensities = scan->intensities;
+  in.angle_min = scan->angle_min;
+  in.angle_increment = scan->angle_increment;
+  in.range_min = scan->range_min;
+  in.range_max = scan->range_max;
+  in.stamp = scan->header.stamp.toSec();
+  in.time_increment = scan->time_increment;
+  for (const auto& s : segs->segments) in.segments.emplace_back(static_cast<int>(s.first_index), static_cast<int>(s.last_index));
+  for (std::size_t i = 0; i < segs->edge_indices.size() && i < segs->edge_kinds.size(); ++i)
+    in.edges.emplace_back(static_cast<int>(segs->edge_indices[i]), static_cast<core::EdgeKind>(segs->edge_kinds[i]));
+  assembler_->addLine(std::move(in), ros::Time::now().toSec());
+  pollSweeps();
+}
+
+void SweepGrouperNodelet::pollSweeps() {
+  if (!assembler_) return;
+  const unsigned long dropped_before = assembler_->counters().lines_no_joint + assembler_->counters().lines_no_pose +
+                                       assembler_->counters().lines_out_of_order + assembler_->counters().sweeps_dropped +
+                                       assembler_->counters().lines_bad + assembler_->counters().joints_out_of_order;
+  core::SweepResult sweep;
+  while (assembler_->poll(ros::Time::now().toSec(), sweep)) publish(sweep);
+  const auto& c = assembler_->counters();
+  if (c.lines_no_joint + c.lines_no_pose + c.lines_out_of_order + c.sweeps_dropped + c.lines_bad +
+          c.joints_out_of_order !=
+      dropped_before)
+    warn(assembler_->lastWarning());
+}
+
+void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
+  const auto t0 = std::chrono::steady_clock::now();
+  core::HeightMapGrid grid;
+  core::buildHeightMap(sweep, map_params_, grid);
+  std_msgs::Header header;
+  header.stamp = ros::Time(sweep.end);
+  header.frame_id = frame_id_;
+  auto planes = boost::make_shared<PlanePolygonArray>();
+  planes->header = header;
+  toMsg(sweep.planes, *planes);
+  auto map = boost::make_shared<HeightMap>();
+  map->header = header;
+  toMsg(grid, *map);
+  planes_pub_.publish(planes);
+  map_pub_.publish(map);
+  last_latency_ms_ = 1e3 * (sweep.finish_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  last_group_ms_ = 1e3 * sweep.group_seconds;
+  last_planes_ = sweep.planes.size();
+  ++published_;
+  if (map_cloud_pub_.getNumSubscribers() > 0) {
+    auto c = boost::make_shared<sensor_msgs::PointCloud2>();
+    heightMapCloud(grid, *c);
+    c->header = header;
+    map_cloud_pub_.publish(c);
+  }
+  if (sweep_cloud_pub_.getNumSubscribers() > 0) {
+    auto c = boost::make_shared<sensor_msgs::PointCloud2>();
+    sweepCloud(sweep, *c);
+    c->header = header;
+    sweep_cloud_pub_.publish(c);
+  }
+  if (edges_pub_.getNumSubscribers() > 0) {
+    auto c = boost::make_shared<sensor_msgs::PointCloud2>();
+    edgeCloud(sweep, *c);
+    c->header = header;
+    edges_pub_.publish(c);
+  }
+  if (markers_pub_.getNumSubscribers() > 0) {
+    auto m = boost::make_shared<visualization_msgs::MarkerArray>();
+    planeMarkers(sweep.planes, header, *m);
+    markers_pub_.publish(m);
+  }
+}
+
+void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> l(mutex_);
+  if (!assembler_) {
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "not ready: %s", chain_error_.c_str());
+    return;
+  }
+  const core::SweepCounters& c = assembler_->counters();
+  if (c.sweeps_dropped > 0 || c.lines_no_joint + c.lines_no_pose > 0)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu sweeps published, %lu dropped; last: %s", published_,
+                  c.sweeps_dropped, assembler_->lastWarning().c_str());
+  else
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "%lu sweeps published", published_);
+  stat.add("sweeps published", published_);
+  stat.add("sweeps dropped", c.sweeps_dropped);
+  stat.add("tilt reversals", c.reversals);
+  stat.add("scan lines used", c.lines);
+  stat.add("lines dropped: no joint state", c.lines_no_joint);
+  stat.add("lines dropped: no pose (tf)", c.lines_no_pose);
+  stat.add("lines dropped: out of order", c.lines_out_of_order);
+  stat.add("lines dropped: malformed", c.lines_bad);
+  stat.add("joint states out of order", c.joints_out_of_order);
+  stat.add("lines waiting", assembler_->pending());
+  stat.add("planes (last sweep)", last_planes_);
+  stat.add("grouping as lines came [ms] (last sweep)", last_group_ms_);
+  stat.add("latency after the last line [ms] (last sweep)", last_latency_ms_);
+}
+
+}  // namespace tilt_laser_perception
+
+PLUGINLIB_EXPORT_CLASS(tilt_laser_perception::SweepGrouperNodelet, nodelet::Nodelet)
