@@ -1,0 +1,274 @@
+// Scan line grouping on synthetic segments with exact expectations: two planes
+// meeting at a crease, a step, a plane with a hole, an L-shaped floor; and
+// the sweep assembler's joint interpolation, reversals and dropped lines.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/core/sweep.hpp"
+
+using namespace tilt_laser_perception::core;
+
+namespace {
+
+/// A segment of `n` points from a to b (exact), on scan line `line`, beams [first, first + n).
+Segment3 seg(int line, int first, const Eigen::Vector3d& a, const Eigen::Vector3d& b, int n = 40) {
+  Segment3 s;
+  s.line = line;
+  s.first = first;
+  s.last = first + n - 1;
+  for (int i = 0; i < n; ++i) s.moments.add(a + (b - a) * (static_cast<double>(i) / (n - 1)));
+  s.start = a;
+  s.end = b;
+  s.range = 0.5 * (a + b).norm();
+  return s;
+}
+
+/// Horizontal lines across y at x = x0 + k dx on a floor z = h (sensor at the origin, 1.5 m up).
+std::vector<std::vector<Segment3>> floorLines(int lines, double x0, double dx, double h, double y0, double y1) {
+  std::vector<std::vector<Segment3>> out;
+  for (int k = 0; k < lines; ++k) out.push_back({seg(k, 100, {x0 + k * dx, y0, h}, {x0 + k * dx, y1, h})});
+  return out;
+}
+
+std::vector<Plane> group(const std::vector<std::vector<Segment3>>& lines, ScanLineGrouper& g) {
+  g.reset(Eigen::Vector3d(0, 0, 1.5));
+  for (const auto& l : lines) g.addLine(l);
+  std::vector<Plane> planes;
+  g.finish(planes);
+  return planes;
+}
+
+}  // namespace
+
+TEST(Moments3, TransformIsExact) {
+  Moments3 m;
+  for (int i = 0; i < 10; ++i) m.add(Eigen::Vector3d(i, 0.5 * i * i, -i));
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.rotate(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+  T.translation() = Eigen::Vector3d(0.3, -2, 5);
+  Moments3 direct;
+  for (int i = 0; i < 10; ++i) direct.add(T * Eigen::Vector3d(i, 0.5 * i * i, -i));
+  const Moments3 t = m.transformed(T);
+  EXPECT_TRUE(t.s.isApprox(direct.s, 1e-12));
+  EXPECT_TRUE(t.ss.isApprox(direct.ss, 1e-12));
+  const PlaneFit f = fitPlane(seg(0, 0, {0, 0, 2}, {1, 0, 2}).moments += seg(1, 0, {0, 1, 2}, {1, 1, 2}).moments);
+  EXPECT_NEAR(std::abs(f.normal.z()), 1.0, 1e-12);
+  EXPECT_NEAR(f.rms, 0.0, 1e-9);
+}
+
+TEST(Grouping, OneFloorIsOnePlane) {
+  ScanLineGrouper g;
+  const auto planes = group(floorLines(10, 1.0, 0.05, 0.0, -1.0, 1.0), g);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_EQ(planes[0].segments, 10);
+  EXPECT_NEAR(planes[0].fit.normal.z(), 1.0, 1e-9);  // towards the sensor above
+  EXPECT_NEAR(planes[0].fit.offset, 0.0, 1e-9);
+  EXPECT_NEAR(planes[0].area, 0.45 * 2.0, 1e-9);     // 9 gaps of 5 cm by 2 m
+  EXPECT_EQ(planes[0].holes.size(), 0u);
+}
+
+TEST(Grouping, TwoPlanesMeetingAtACreaseStayApart) {
+  // A floor (x 1..1.45), then a 45-degree ramp going up from x = 1.5.
+  std::vector<std::vector<Segment3>> lines = floorLines(10, 1.0, 0.05, 0.0, -1.0, 1.0);
+  for (int k = 0; k < 8; ++k) {
+    const double x = 1.5 + 0.04 * k, z = 0.04 * k;
+    lines.push_back({seg(10 + k, 100, {x, -1.0, z}, {x, 1.0, z})});
+  }
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 2u);
+  const double angle = std::acos(std::abs(planes[0].fit.normal.dot(planes[1].fit.normal))) * 180 / M_PI;
+  EXPECT_NEAR(angle, 45.0, 1e-6);
+  EXPECT_EQ(planes[0].segments + planes[1].segments, 18);
+}
+
+TEST(Grouping, AStepGivesTreadRiserAndFloor) {
+  // Floor z = 0 for x < 1.4, riser x = 1.4 (z 0..0.15, lines at z 0.05 and 0.10), tread z = 0.15 beyond.
+  std::vector<std::vector<Segment3>> lines = floorLines(9, 1.0, 0.05, 0.0, -0.6, 0.6);
+  lines.push_back({seg(9, 100, {1.4, -0.6, 0.05}, {1.4, 0.6, 0.05})});
+  lines.push_back({seg(10, 100, {1.4, -0.6, 0.10}, {1.4, 0.6, 0.10})});
+  for (int k = 0; k < 6; ++k) lines.push_back({seg(11 + k, 100, {1.45 + 0.06 * k, -0.6, 0.15}, {1.45 + 0.06 * k, 0.6, 0.15})});
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 3u);
+  int floors = 0, risers = 0, treads = 0;
+  for (const auto& p : planes) {
+    if (std::abs(p.fit.normal.z()) > 0.999 && std::abs(p.fit.offset) < 1e-9) ++floors;
+    if (std::abs(p.fit.normal.z()) > 0.999 && std::abs(p.fit.centroid.z() - 0.15) < 1e-9) ++treads;
+    if (std::abs(p.fit.normal.x()) > 0.999) {
+      ++risers;
+      EXPECT_NEAR(p.fit.centroid.x(), 1.4, 1e-9);
+      EXPECT_EQ(p.segments, 2);
+    }
+  }
+  EXPECT_EQ(floors, 1);
+  EXPECT_EQ(risers, 1);
+  EXPECT_EQ(treads, 1);
+}
+
+TEST(Grouping, APlaneWithAHole) {
+  // Lines 3..6 have a gap between y = -0.2 and 0.2 (beams 160..199): a hole of 4 x 5 cm gaps... 0.15 m x 0.4 m.
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k < 10; ++k) {
+    const double x = 1.0 + 0.05 * k;
+    if (k >= 3 && k <= 6)
+      lines.push_back({seg(k, 100, {x, -1.0, 0.0}, {x, -0.2, 0.0}, 60), seg(k, 200, {x, 0.2, 0.0}, {x, 1.0, 0.0}, 60)});
+    else
+      lines.push_back({seg(k, 100, {x, -1.0, 0.0}, {x, 1.0, 0.0}, 160)});
+  }
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 1u);
+  ASSERT_EQ(planes[0].holes.size(), 1u);
+  EXPECT_EQ(planes[0].holes[0].size(), 8u);              // 4 lines, both sides
+  EXPECT_NEAR(planes[0].area, 0.45 * 2.0 - 0.15 * 0.4, 1e-9);
+}
+
+TEST(Grouping, AnLShapedFloorAroundABox) {
+  // The floor's right part is hidden by a box on lines 4..9: the floor's lines end early there.
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k < 10; ++k) {
+    const double x = 1.0 + 0.05 * k;
+    const double y1 = k >= 4 ? 0.0 : 1.0;
+    lines.push_back({seg(k, 100, {x, -1.0, 0.0}, {x, y1, 0.0}, k >= 4 ? 80 : 160)});
+  }
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 1u);
+  // L shape: 2 m x 0.15 m, then (0.05 m of transition), then 1 m x 0.25 m.
+  const double expected = 2.0 * 0.15 + 0.05 * (2.0 + 1.0) / 2.0 + 1.0 * 0.25;
+  EXPECT_NEAR(planes[0].area, expected, 1e-9);
+  EXPECT_EQ(planes[0].boundary.size(), 20u);
+  // Concave: a boundary vertex lies inside the convex hull's corner (x 1.45, y 1.0) region is empty.
+  bool reaches_corner = false;
+  for (const auto& v : planes[0].boundary) reaches_corner |= v.x() > 1.4 && v.y() > 0.5;
+  EXPECT_FALSE(reaches_corner);
+}
+
+TEST(Grouping, ParallelSegmentsEndToEndDoNotSeedAPlane) {
+  // Line 0: a segment at z = 0 for beams 100..139; line 1: a segment at z = 0.15 for beams 145..184.
+  // Parallel lines always share a plane; these are not side by side: no plane.
+  std::vector<std::vector<Segment3>> lines{{seg(0, 100, {1.0, -1.0, 0.0}, {1.0, -0.6, 0.0})},
+                                           {seg(1, 145, {1.05, -0.5, 0.15}, {1.05, -0.1, 0.15})}};
+  ScanLineGrouper g;
+  EXPECT_TRUE(group(lines, g).empty());
+}
+
+TEST(JointBuffer, InterpolatesAndRefusesGaps) {
+  JointBuffer b(0.05);
+  EXPECT_TRUE(b.add(0.00, 0.0));
+  EXPECT_TRUE(b.add(0.01, 0.1));
+  EXPECT_FALSE(b.add(0.005, 9.0));  // out of order
+  EXPECT_TRUE(b.add(0.10, 0.2));    // a 90 ms gap
+  double q = 0;
+  ASSERT_TRUE(b.at(0.005, q));
+  EXPECT_NEAR(q, 0.05, 1e-12);
+  EXPECT_FALSE(b.at(0.05, q));  // inside the gap
+  EXPECT_FALSE(b.at(0.2, q));   // after the last
+}
+
+namespace {
+std::vector<SweepResult> runTriangle(double max_dropped_fraction, SweepCounters* counters) {
+  SweepParams p;
+  p.min_lines = 3;
+  p.max_dropped_fraction = max_dropped_fraction;
+  TiltChain chain;
+  chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
+  SweepAssembler a(p, chain);
+  // Triangle tilt: 0.2 -> 0.8 rad in 0.6 s, then back.
+  const auto q_at = [](double t) { const double ph = std::fmod(t, 1.2); return ph < 0.6 ? 0.2 + ph : 1.4 - ph; };
+  std::vector<SweepResult> sweeps;
+  double next_scan = 0.0;
+  for (double t = 0.0; t < 3.0; t += 0.005) {
+    if (!(t > 1.5 && t < 1.56)) a.addJoint(t, q_at(t));  // 60 ms without joint states
+    if (t >= next_scan + 0.025) {
+      LineInput in;
+      in.ranges.assign(11, 2.0f);
+      in.angle_min = -0.1;
+      in.angle_increment = 0.02;
+      in.range_min = 0.1;
+      in.range_max = 30;
+      in.stamp = next_scan;
+      in.time_increment = 0.001;
+      in.segments = {{0, 10}};
+      a.addLine(in, t);
+      next_scan += 0.025;
+    }
+    SweepResult r;
+    while (a.poll(t, r)) sweeps.push_back(std::move(r));
+  }
+  *counters = a.counters();
+  return sweeps;
+}
+}  // namespace
+
+TEST(SweepAssembler, CutsSweepsAtReversalsAndDropsLinesWithoutJointStates) {
+  SweepCounters c;
+  const std::vector<SweepResult> sweeps = runTriangle(0.2, &c);
+  // Reversals at 0.6, 1.2, 1.8, 2.4: sweeps 0.6-1.2, 1.2-1.8, 1.8-2.4 (the first, from 0, is no sweep).
+  ASSERT_EQ(sweeps.size(), 3u);
+  EXPECT_NEAR(sweeps[0].start, 0.6, 0.006);
+  EXPECT_NEAR(sweeps[0].end, 1.2, 0.006);
+  EXPECT_NEAR(sweeps[2].end, 2.4, 0.006);
+  EXPECT_NEAR(static_cast<double>(sweeps[0].lines.size()), 24.0, 1.0);
+  // The joint gap (1.5 .. 1.56 s) dropped the lines that needed it: 2 or 3 of them.
+  EXPECT_GE(sweeps[1].dropped_lines, 2);
+  EXPECT_LE(sweeps[1].dropped_lines, 3);
+  EXPECT_GE(c.lines_no_joint, 2u);
+  for (const auto& s : sweeps)
+    for (const auto& l : s.lines) {
+      EXPECT_GE(l.stamp + 0.005, s.start);  // never mixed
+      EXPECT_LE(l.stamp + 0.005, s.end);
+    }
+}
+
+TEST(HeightMap, FillsPolygonsAndMarksObstacles) {
+  SweepResult s;
+  Plane floor;
+  floor.id = 0;
+  floor.fit.normal = Eigen::Vector3d::UnitZ();
+  floor.fit.offset = 0.0;
+  floor.fit.centroid = Eigen::Vector3d(1, 0, 0);
+  floor.area = 4.0;
+  floor.boundary = {{0, -1, 0}, {2, -1, 0}, {2, 1, 0}, {0, 1, 0}};
+  floor.holes = {{{0.5, -0.25, 0}, {1.0, -0.25, 0}, {1.0, 0.25, 0}, {0.5, 0.25, 0}}};
+  Plane top = floor;
+  top.id = 1;
+  top.fit.offset = 0.2;
+  top.fit.centroid = Eigen::Vector3d(0.75, 0, 0.2);
+  top.area = 0.25;
+  top.boundary = {{0.5, -0.25, 0.2}, {1.0, -0.25, 0.2}, {1.0, 0.25, 0.2}, {0.5, 0.25, 0.2}};
+  top.holes.clear();
+  s.planes = {floor, top};
+  // A pole at (1.5, 0.5): points up to 1 m, in no plane.
+  SweepLine line;
+  for (int i = 0; i < 10; ++i) line.points.emplace_back(1.505f, 0.505f, 0.1f * (i + 1));
+  s.lines.push_back(line);
+  HeightMapParams p;
+  p.origin_x = 0.0;
+  p.origin_y = -1.0;
+  p.width = 200;
+  p.height = 200;
+  HeightMapGrid g;
+  buildHeightMap(s, p, g);
+  const auto at = [&](double x, double y) { return g.index(static_cast<int>(x / 0.01), static_cast<int>((y + 1.0) / 0.01)); };
+  EXPECT_NEAR(g.heights[at(0.2, 0.0)], 0.0, 1e-6);
+  EXPECT_EQ(g.classes[at(0.2, 0.0)], CellClass::Floor);
+  EXPECT_NEAR(g.heights[at(0.75, 0.0)], 0.2, 1e-6);  // in the floor's hole: the top
+  EXPECT_EQ(g.classes[at(0.75, 0.0)], CellClass::Step);
+  EXPECT_EQ(g.plane_ids[at(0.75, 0.0)], 1);
+  EXPECT_NEAR(g.heights[at(1.5, 0.5)], 1.0, 1e-6);
+  EXPECT_EQ(g.classes[at(1.5, 0.5)], CellClass::Obstacle);
+  EXPECT_TRUE(std::isnan(g.heights[at(1.9, 0.99) + p.width]) || g.classes[at(1.9, 0.99)] == CellClass::Floor);
+  EXPECT_EQ(g.floor_plane, 0);
+}
+
+TEST(SweepAssembler, DropsASweepThatLostTooManyLines) {
+  SweepCounters c;
+  const std::vector<SweepResult> sweeps = runTriangle(0.05, &c);  // 2 or 3 of 24 lines lost: more than 5 %
+  ASSERT_EQ(sweeps.size(), 2u);
+  EXPECT_EQ(c.sweeps_dropped, 1u);
+  EXPECT_NEAR(sweeps[1].start, 1.8, 0.006);  // the one after it is whole
+}
