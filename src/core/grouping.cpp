@@ -47,6 +47,15 @@ std::string GroupingParams::validate() const {
   return s.str();
 }
 
+std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> ScanLineGrouper::membersIn(
+    const Region& r, int line_lo, int line_hi) const {
+  // Members are segment indices in increasing order, and segments come line by line.
+  const auto lo = std::lower_bound(r.members.begin(), r.members.end(), line_lo,
+                                   [&](int m, int line) { return segs_[m].line < line; });
+  const auto hi = std::upper_bound(lo, r.members.end(), line_hi, [&](int line, int m) { return line < segs_[m].line; });
+  return {lo, hi};
+}
+
 void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
   sensor_ = sensor;
   segs_.clear();
@@ -176,31 +185,45 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
 void ScanLineGrouper::finish(std::vector<Plane>& planes) {
   planes.clear();
   open_.clear();
+  // The regions that can be planes: alive, two segments or more. (Most
+  // regions are single segments that found no partner.)
+  std::vector<int> cand;
+  const auto collect = [&] {
+    cand.clear();
+    for (std::size_t i = 0; i < regions_.size(); ++i)
+      if (!regions_[i].dead && regions_[i].members.size() >= 2) cand.push_back(static_cast<int>(i));
+  };
+  collect();
   // Planes that meet and agree merge (a floor cut in two by a box, a plane that restarted after a gap).
   bool merged = true;
   while (merged) {
     merged = false;
-    for (std::size_t a = 0; a < regions_.size() && !merged; ++a) {
-      if (regions_[a].dead || regions_[a].members.size() < 2) continue;
-      for (std::size_t b = a + 1; b < regions_.size() && !merged; ++b) {
-        if (regions_[b].dead || regions_[b].members.size() < 2) continue;
+    for (std::size_t ia = 0; ia < cand.size(); ++ia) {
+      const int a = cand[ia];
+      if (regions_[a].dead) continue;
+      for (std::size_t ib = ia + 1; ib < cand.size(); ++ib) {
+        const int b = cand[ib];
+        if (regions_[b].dead) continue;
         const Region& ra = regions_[a];
         const Region& rb = regions_[b];
         if (ra.first_line > rb.last_line + p_.max_line_gap + 1 || rb.first_line > ra.last_line + p_.max_line_gap + 1)
           continue;
         if (!planesAgree(ra, rb)) continue;
         double near = 1e300;
-        for (int i : ra.members)
-          for (int j : rb.members)
-            if (std::abs(segs_[i].line - segs_[j].line) <= p_.max_line_gap + 1)
-              near = std::min(near, segmentDistance(segs_[i], segs_[j]));
+        const int gap = p_.max_line_gap + 1;
+        const auto [a0, a1] = membersIn(ra, rb.first_line - gap, rb.last_line + gap);
+        for (auto i = a0; i != a1; ++i) {
+          const auto [b0, b1] = membersIn(rb, segs_[*i].line - gap, segs_[*i].line + gap);
+          for (auto j = b0; j != b1; ++j) near = std::min(near, segmentDistance(segs_[*i], segs_[*j]));
+        }
         const double range = (ra.fit.centroid - sensor_).norm();
         if (near > p_.seed_gap + 0.05 * range) continue;
-        absorb(static_cast<int>(a), static_cast<int>(b));
+        absorb(a, b);
         merged = true;
       }
     }
   }
+  collect();
   // A segment on a crease fits the planes on both sides; the first to come
   // took it. Give each boundary segment to the neighbouring plane it lies
   // nearer to, if that plane accepts it.
@@ -220,19 +243,17 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     const double d_own = std::abs(own_fit.normal.dot(c) - own_fit.offset);
     int best = -1;
     double best_d = d_own;
-    for (std::size_t rj = 0; rj < regions_.size(); ++rj) {
+    for (int rj : cand) {
       const Region& o = regions_[rj];
-      if (static_cast<int>(rj) == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
+      if (rj == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
       if (s.line < o.first_line - 1 || s.line > o.last_line + 1) continue;
       const double d = std::abs(o.fit.normal.dot(c) - o.fit.offset);
       if (d >= best_d || d > std::max(p_.centroid_min, p_.centroid_ratio * s.range)) continue;
       bool overlap = false;
-      for (int mi : o.members) {
-        const Segment3& m = segs_[mi];
-        overlap = overlap || (std::abs(m.line - s.line) <= 1 && m.first <= s.last && s.first <= m.last);
-      }
+      const auto [m0, m1] = membersIn(o, s.line - 1, s.line + 1);
+      for (auto mi = m0; mi != m1 && !overlap; ++mi) overlap = segs_[*mi].first <= s.last && s.first <= segs_[*mi].last;
       if (overlap) {
-        best = static_cast<int>(rj);
+        best = rj;
         best_d = d;
       }
     }
@@ -261,21 +282,19 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     if (s.moments.n < 3) continue;
     int best = -1;
     double best_score = 1e300;
-    for (std::size_t rj = 0; rj < regions_.size(); ++rj) {
+    for (int rj : cand) {
       const Region& o = regions_[rj];
-      if (static_cast<int>(rj) == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
+      if (rj == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
       if (s.line < o.first_line - p_.max_line_gap || s.line > o.last_line + p_.max_line_gap) continue;
       bool overlap = false;
-      for (int mi : o.members) {
-        const Segment3& m = segs_[mi];
-        overlap = overlap || (std::abs(m.line - s.line) <= p_.max_line_gap && m.first <= s.last + p_.beam_slack &&
-                              s.first <= m.last + p_.beam_slack);
-      }
+      const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+      for (auto mi = m0; mi != m1 && !overlap; ++mi)
+        overlap = segs_[*mi].first <= s.last + p_.beam_slack && s.first <= segs_[*mi].last + p_.beam_slack;
       double score = 0.0;
       Segment3 probe = s;
       probe.line = std::min(s.line, o.last_line + 1);  // fits() looks at the lines before the segment's
       if (overlap && fits(o, probe, score) && score < best_score) {
-        best = static_cast<int>(rj);
+        best = rj;
         best_score = score;
       }
     }

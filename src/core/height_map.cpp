@@ -39,6 +39,12 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   }
 
   // Fill each walkable plane's polygon (holes by the even-odd rule) row by row.
+  struct Edge {
+    double ax, ay, bx, by;
+    int lo, hi;  // rows it crosses
+  };
+  std::vector<Edge> edges;
+  std::vector<int> row_count, row_fill, row_edges;
   std::vector<double> xs;
   for (const Plane& pl : sweep.planes) {
     if (!walkable[pl.id]) continue;
@@ -51,18 +57,39 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     }
     const int iy0 = std::max(0, static_cast<int>(std::floor((ymin - p.origin_y) / p.resolution)));
     const int iy1 = std::min(p.height - 1, static_cast<int>(std::floor((ymax - p.origin_y) / p.resolution)));
+    if (iy1 < iy0) continue;
     const Eigen::Vector3d& n = pl.fit.normal;
+    // Edge table: each edge listed under the rows whose centre line it crosses.
+    const auto rowOf = [&](double y) { return (y - p.origin_y) / p.resolution - 0.5; };
+    row_count.assign(iy1 - iy0 + 2, 0);
+    edges.clear();
+    for (const auto* ring : rings) {
+      const std::size_t m = ring->size();
+      for (std::size_t i = 0; i < m; ++i) {
+        const Eigen::Vector3d& a = (*ring)[i];
+        const Eigen::Vector3d& b = (*ring)[(i + 1) % m];
+        if (a.y() == b.y()) continue;
+        const double ra = rowOf(a.y()), rb = rowOf(b.y());
+        // rows iy with centre in [min, max): the half-open rule of the crossing test
+        const int lo = std::max(iy0, static_cast<int>(std::ceil(std::min(ra, rb))));
+        const int hi = std::min(iy1, static_cast<int>(std::ceil(std::max(ra, rb))) - 1);
+        if (hi < lo) continue;
+        edges.push_back({a.x(), a.y(), b.x(), b.y(), lo, hi});
+        for (int r = lo; r <= hi; ++r) ++row_count[r - iy0 + 1];
+      }
+    }
+    for (std::size_t r = 1; r < row_count.size(); ++r) row_count[r] += row_count[r - 1];
+    row_edges.resize(row_count.back());
+    row_fill.assign(row_count.begin(), row_count.end());
+    for (std::size_t e = 0; e < edges.size(); ++e)
+      for (int r = edges[e].lo; r <= edges[e].hi; ++r) row_edges[row_fill[r - iy0]++] = static_cast<int>(e);
+    const double inv_nz = 1.0 / n.z();
     for (int iy = iy0; iy <= iy1; ++iy) {
       const double y = p.origin_y + (iy + 0.5) * p.resolution;
       xs.clear();
-      for (const auto* ring : rings) {
-        const std::size_t m = ring->size();
-        for (std::size_t i = 0; i < m; ++i) {
-          const Eigen::Vector3d& a = (*ring)[i];
-          const Eigen::Vector3d& b = (*ring)[(i + 1) % m];
-          if ((a.y() <= y) == (b.y() <= y)) continue;
-          xs.push_back(a.x() + (y - a.y()) / (b.y() - a.y()) * (b.x() - a.x()));
-        }
+      for (int k = row_count[iy - iy0]; k < row_count[iy - iy0 + 1]; ++k) {
+        const Edge& e = edges[row_edges[k]];
+        xs.push_back(e.ax + (y - e.ay) / (e.by - e.ay) * (e.bx - e.ax));
       }
       std::sort(xs.begin(), xs.end());
       for (std::size_t k = 0; k + 1 < xs.size(); k += 2) {
@@ -70,7 +97,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xs[k + 1] - p.origin_x) / p.resolution - 0.5)));
         for (int ix = ix0; ix <= ix1; ++ix) {
           const double x = p.origin_x + (ix + 0.5) * p.resolution;
-          const double z = (pl.fit.offset - n.x() * x - n.y() * y) / n.z();
+          const double z = (pl.fit.offset - n.x() * x - n.y() * y) * inv_nz;
           const std::size_t c = out.index(ix, iy);
           if (std::isnan(out.heights[c]) || z > out.heights[c]) {  // seen from above: the higher surface
             out.heights[c] = static_cast<float>(z);
@@ -87,40 +114,49 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
                          : CellClass::Step;
   }
 
-  // Obstacles: points outside walkable planes that stand above the cell's surface.
-  std::vector<int> point_plane;
+  // Obstacles: points outside walkable planes that stand above the cell's
+  // surface. Segments come in line and beam order: only the beams between
+  // the walkable planes' segments are looked at.
+  const float x_lo = static_cast<float>(p.origin_x - 0.1), x_hi = static_cast<float>(p.origin_x + p.width * p.resolution + 0.1);
+  const float y_lo = static_cast<float>(p.origin_y - 0.1), y_hi = static_cast<float>(p.origin_y + p.height * p.resolution + 0.1);
+  const double inv_res = 1.0 / p.resolution;
+  const auto mark = [&](const Eigen::Vector3f& point, const Plane* plane) {
+    // Outside the map (or no return: NaN fails these too): nothing to do.
+    if (!(point.x() > x_lo && point.x() < x_hi && point.y() > y_lo && point.y() < y_hi)) return;
+    // A point of a plane (a wall, a box's side) is put on its plane: range
+    // noise would otherwise spill it into the cells in front.
+    Eigen::Vector3d q = point.cast<double>();
+    if (plane) q -= (plane->fit.normal.dot(q) - plane->fit.offset) * plane->fit.normal;
+    const int ix = static_cast<int>(std::floor((q.x() - p.origin_x) * inv_res));
+    const int iy = static_cast<int>(std::floor((q.y() - p.origin_y) * inv_res));
+    if (ix < 0 || iy < 0 || ix >= p.width || iy >= p.height) return;
+    const std::size_t c = out.index(ix, iy);
+    const float z = static_cast<float>(q.z());
+    const bool known_surface = out.classes[c] == CellClass::Floor || out.classes[c] == CellClass::Step;
+    if (known_surface && z < out.heights[c] + p.obstacle_min_height) return;
+    if (out.classes[c] == CellClass::Obstacle && z <= out.heights[c]) return;
+    if (!known_surface && out.classes[c] != CellClass::Obstacle && !std::isnan(out.floor_height) &&
+        z < out.floor_height + p.obstacle_min_height)
+      return;  // a stray point at floor level: not an obstacle
+    out.heights[c] = z;
+    out.classes[c] = CellClass::Obstacle;
+    out.plane_ids[c] = -1;
+  };
+  std::size_t si = 0;
   for (std::size_t li = 0; li < sweep.lines.size(); ++li) {
-    const SweepLine& line = sweep.lines[li];
-    point_plane.assign(line.points.size(), -1);
-    for (std::size_t si = 0; si < sweep.segments.size(); ++si) {
+    const std::vector<Eigen::Vector3f>& pts = sweep.lines[li].points;
+    int cursor = 0;
+    for (; si < sweep.segments.size() && sweep.segments[si].line == static_cast<int>(li); ++si) {
       const Segment3& s = sweep.segments[si];
-      if (s.line != static_cast<int>(li)) continue;
       const int pid = sweep.segment_plane[si];
-      for (int i = s.first; i <= s.last; ++i) point_plane[i] = pid;
+      for (int i = cursor; i < s.first; ++i) mark(pts[i], nullptr);
+      if (pid < 0 || !(walkable[pid] || step_face[pid])) {
+        const Plane* plane = pid >= 0 ? &sweep.planes[pid] : nullptr;
+        for (int i = std::max(cursor, s.first); i <= s.last; ++i) mark(pts[i], plane);
+      }
+      cursor = std::max(cursor, s.last + 1);
     }
-    for (std::size_t i = 0; i < line.points.size(); ++i) {
-      if (!std::isfinite(line.points[i].x())) continue;
-      const int pid = point_plane[i];
-      if (pid >= 0 && (walkable[pid] || step_face[pid])) continue;
-      // A point of a plane (a wall, a box's side) is put on its plane: range
-      // noise would otherwise spill it into the cells in front.
-      Eigen::Vector3d q = line.points[i].cast<double>();
-      if (pid >= 0) q -= (sweep.planes[pid].fit.normal.dot(q) - sweep.planes[pid].fit.offset) * sweep.planes[pid].fit.normal;
-      const Eigen::Vector3f pt = q.cast<float>();
-      const int ix = static_cast<int>(std::floor((pt.x() - p.origin_x) / p.resolution));
-      const int iy = static_cast<int>(std::floor((pt.y() - p.origin_y) / p.resolution));
-      if (ix < 0 || iy < 0 || ix >= p.width || iy >= p.height) continue;
-      const std::size_t c = out.index(ix, iy);
-      const bool known_surface = out.classes[c] == CellClass::Floor || out.classes[c] == CellClass::Step;
-      if (known_surface && pt.z() < out.heights[c] + p.obstacle_min_height) continue;
-      if (out.classes[c] == CellClass::Obstacle && pt.z() <= out.heights[c]) continue;
-      if (!known_surface && out.classes[c] != CellClass::Obstacle && !std::isnan(out.floor_height) &&
-          pt.z() < out.floor_height + p.obstacle_min_height)
-        continue;  // a stray point at floor level: not an obstacle
-      out.heights[c] = pt.z();
-      out.classes[c] = CellClass::Obstacle;
-      out.plane_ids[c] = -1;
-    }
+    for (int i = cursor; i < static_cast<int>(pts.size()); ++i) mark(pts[i], nullptr);
   }
 }
 

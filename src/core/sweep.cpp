@@ -18,6 +18,24 @@ bool JointBuffer::add(double t, double q) {
   return true;
 }
 
+bool JointBuffer::sample(double t0, double dt, std::size_t n, std::vector<double>& q) const {
+  q.resize(n);
+  if (samples_.empty() || t0 < samples_.front().first || t0 + (n - 1) * dt > samples_.back().first) return false;
+  auto it = std::lower_bound(samples_.begin(), samples_.end(), t0,
+                             [](const std::pair<double, double>& s, double v) { return s.first < v; });
+  if (it == samples_.begin()) ++it;  // t0 is the first sample: interpolate on the first interval
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = t0 + i * dt;
+    while (it != samples_.end() && it->first < t) ++it;
+    if (it == samples_.end()) return false;
+    const auto& b = *it;
+    const auto& a = *(it - 1);
+    if (b.first - a.first > max_gap_) return false;
+    q[i] = a.second + (t - a.first) / (b.first - a.first) * (b.second - a.second);
+  }
+  return true;
+}
+
 bool JointBuffer::at(double t, double& q) const {
   if (samples_.empty() || t < samples_.front().first || t > samples_.back().first) return false;
   auto it = std::lower_bound(samples_.begin(), samples_.end(), t,
@@ -132,17 +150,46 @@ bool SweepAssembler::process(const LineInput& in) {
   line.intensities = in.intensities;
   line.edges = in.edges;
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::vector<Eigen::Vector3d> pts(n);
-  std::vector<double> rng(n);
-  double q_mid = 0.0;  // one angle for the whole line when per_beam is off: the angle at its stamp
-  const bool have_mid = joints_.at(in.stamp, q_mid);
-  for (std::size_t i = 0; i < n; ++i) {
-    double q = q_mid;
-    if (!(p_.per_beam ? joints_.at(in.stamp + i * in.time_increment, q) : have_mid)) {
+  std::vector<Eigen::Vector3d>& pts = pts_;
+  std::vector<double>& rng = rng_;
+  pts.resize(n);
+  rng.resize(n);
+  // The joint angle of every beam (or one for the line at its stamp).
+  if (p_.per_beam) {
+    if (!joints_.sample(in.stamp, in.time_increment, n, q_)) {
       ++counters_.lines_no_joint;
       warning_ = "no joint state at a beam's time (gap or late): line dropped";
       return false;
     }
+  } else {
+    double q0 = 0.0;
+    if (!joints_.at(in.stamp, q0)) {
+      ++counters_.lines_no_joint;
+      warning_ = "no joint state at the line's stamp: line dropped";
+      return false;
+    }
+    q_.assign(n, q0);
+  }
+  // Beam directions, cached while the scan geometry stays the same.
+  if (cos_.size() != n || trig_min_ != in.angle_min || trig_inc_ != in.angle_increment) {
+    cos_.resize(n);
+    sin_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      cos_[i] = std::cos(in.angle_min + i * in.angle_increment);
+      sin_[i] = std::sin(in.angle_min + i * in.angle_increment);
+    }
+    trig_min_ = in.angle_min;
+    trig_inc_ = in.angle_increment;
+  }
+  // p = base * base_to_joint * R(axis, q) * joint_to_laser * (r cos a, r sin a, 0), with R by
+  // Rodrigues' formula; cos q and sin q are updated only where q changes.
+  const Eigen::Isometry3d outer = base * chain_.base_to_joint;
+  const Eigen::Matrix3d JL = chain_.joint_to_laser.linear();
+  const Eigen::Vector3d Jt = chain_.joint_to_laser.translation();
+  const Eigen::Vector3d k = chain_.axis;
+  double q_prev = std::numeric_limits<double>::quiet_NaN(), c = 1.0, s = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double q = q_[i];
     line.tilt[i] = static_cast<float>(q);
     const double r = in.ranges[i];
     rng[i] = r;
@@ -151,8 +198,14 @@ bool SweepAssembler::process(const LineInput& in) {
       pts[i] = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
       continue;
     }
-    const double a = in.angle_min + i * in.angle_increment;
-    pts[i] = base * chain_.laserPose(q) * Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0.0);
+    if (q != q_prev) {
+      c = std::cos(q);
+      s = std::sin(q);
+      q_prev = q;
+    }
+    const Eigen::Vector3d v = JL.col(0) * (r * cos_[i]) + JL.col(1) * (r * sin_[i]) + Jt;
+    const Eigen::Vector3d rv = v * c + k.cross(v) * s + k * (k.dot(v) * (1.0 - c));
+    pts[i] = outer * rv;
     line.points[i] = pts[i].cast<float>();
   }
   const int index = static_cast<int>(current_.lines.size());

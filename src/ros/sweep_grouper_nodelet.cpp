@@ -174,7 +174,7 @@ void SweepGrouperNodelet::pollSweeps() {
 
 void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   const auto t0 = std::chrono::steady_clock::now();
-  core::HeightMapGrid grid;
+  core::HeightMapGrid& grid = grid_;
   core::buildHeightMap(sweep, map_params_, grid);
   std_msgs::Header header;
   header.stamp = ros::Time(sweep.end);

@@ -83,6 +83,9 @@ class ScanLineGrouper {
     int parent = -1;
   };
   bool fits(const Region& r, const Segment3& s, double& score) const;
+  /// The members of r on lines [line_lo, line_hi].
+  std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> membersIn(const Region& r, int line_lo,
+                                                                                         int line_hi) const;
   bool planesAgree(const Region& a, const Region& b) const;
   void absorb(int into, int from);
   void buildPolygon(const Region& r, Plane& out) const;

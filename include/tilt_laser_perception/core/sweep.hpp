@@ -38,6 +38,8 @@ class JointBuffer {
   bool add(double t, double q);
   /// The angle at t; false when t is outside the buffer or falls in a gap longer than max_gap.
   bool at(double t, double& q) const;
+  /// The angles at t0, t0 + dt, ..., t0 + (n - 1) dt in one pass; false like at().
+  bool sample(double t0, double dt, std::size_t n, std::vector<double>& q) const;
   double latest() const { return samples_.empty() ? -1e300 : samples_.back().first; }
   bool empty() const { return samples_.empty(); }
   void clear() { samples_.clear(); }
@@ -138,6 +140,10 @@ class SweepAssembler {
   std::uint32_t next_id_ = 0;
   SweepCounters counters_;
   std::string warning_;
+  // per-line buffers
+  std::vector<double> q_, cos_, sin_, rng_;
+  std::vector<Eigen::Vector3d> pts_;
+  double trig_min_ = 0.0, trig_inc_ = 0.0;
 };
 
 }  // namespace core

@@ -46,6 +46,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   std::unique_ptr<core::SweepAssembler> assembler_;
   core::SweepParams sweep_params_;
   core::HeightMapParams map_params_;
+  core::HeightMapGrid grid_;  // reused: no page faults per sweep
   std::string frame_id_, joint_name_, laser_frame_, parent_link_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

@@ -1,0 +1,124 @@
+// Time per sweep of 1081 x 200 scan lines (the stairs scene, the head sweeping
+// 10..60 deg at 0.175 rad/s): the whole sweep's split and grouping CPU time,
+// and the latency from the last scan line to the planes and the height map.
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+
+#include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/dynamixel/mx64.hpp"
+#include "tilt_laser_perception/sim/head.hpp"
+
+using namespace tilt_laser_perception;
+
+namespace {
+struct Recording {
+  std::vector<std::pair<double, double>> joints;
+  std::vector<core::LineInput> lines;  // with ranges only; split in the benchmark
+  core::TiltChain chain;
+};
+
+const Recording& recording() {
+  static const Recording rec = [] {
+    Recording r;
+    const sim::Scene scene = sim::loadScene("stairs");
+    const sim::HeadGeometry head = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml");
+    core::TiltProfileParams prof;
+    prof.speed = 0.1745;  // 50 deg in 200 scans of 25 ms
+    sim::ServoModel servo(prof.min_angle, 0.0);
+    sim::SweepController sweep(servo, prof);
+    sim::HeadSimulator hs(scene, head, servo, sim::NoiseParams(), 1);
+    sim::HeadScan scan;
+    double next_j = 0, next_s = 0;
+    for (double t = 0.0; t < 12.0; t += 0.001) {
+      sweep.update(t);
+      if (t >= next_j) {
+        r.joints.emplace_back(t, dynamixel::positionToRad(dynamixel::radToPosition(servo.state(t).position)));
+        next_j += 0.005;
+      }
+      if (t >= next_s + 0.025) {
+        hs.scan(next_s, scan);
+        core::LineInput in;
+        in.ranges = scan.scan.ranges;
+        in.angle_min = scan.scan.model.angleMin();
+        in.angle_increment = scan.scan.model.angle_increment;
+        in.range_min = scan.scan.model.range_min;
+        in.range_max = scan.scan.model.range_max;
+        in.stamp = next_s;
+        in.time_increment = scan.scan.model.timeIncrement();
+        r.lines.push_back(std::move(in));
+        next_s += 0.025;
+      }
+    }
+    r.chain.base_to_joint.translation() = head.axis_origin;
+    r.chain.joint_to_laser.translation() = head.laser_offset;
+    return r;
+  }();
+  return rec;
+}
+
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+}  // namespace
+
+static void Sweep1081x200(benchmark::State& state) {
+  const Recording& rec = recording();
+  core::ScanSplitter splitter;
+  core::SplitResult split;
+  double split_s = 0, group_s = 0, latency_s = 0, finish_s = 0, map_s = 0;
+  core::HeightMapGrid grid;  // kept between sweeps, as the nodelet keeps it
+  long sweeps = 0, lines = 0, planes = 0;
+  for (auto _ : state) {
+    core::SweepAssembler a(core::SweepParams(), rec.chain);
+    std::size_t j = 0;
+    core::SweepResult done;
+    bool got = false;
+    for (const core::LineInput& raw : rec.lines) {
+      const double last_beam = raw.stamp + 1080 * raw.time_increment;
+      while (j < rec.joints.size() && rec.joints[j].first <= last_beam + 0.005) {
+        a.addJoint(rec.joints[j].first, rec.joints[j].second);
+        ++j;
+      }
+      core::LineInput in = raw;
+      core::ScanView v;
+      v.ranges = in.ranges.data();
+      v.size = in.ranges.size();
+      v.angle_min = in.angle_min;
+      v.angle_increment = in.angle_increment;
+      v.angle_max = in.angle_min + (v.size - 1) * in.angle_increment;
+      v.range_min = in.range_min;
+      v.range_max = in.range_max;
+      const double t0 = now();
+      splitter.split(v, split);
+      split_s += now() - t0;
+      for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
+      a.addLine(std::move(in), last_beam);
+      if (a.poll(last_beam + 0.03, done)) {
+        got = true;
+        break;
+      }
+    }
+    if (!got) {
+      state.SkipWithError("no sweep");
+      return;
+    }
+    const double t1 = now();
+    core::buildHeightMap(done, core::HeightMapParams(), grid);
+    latency_s += done.finish_seconds + (now() - t1);
+    finish_s += done.finish_seconds;
+    map_s += now() - t1;
+    group_s += done.group_seconds + done.finish_seconds + (now() - t1);
+    lines += static_cast<long>(done.lines.size());
+    planes += static_cast<long>(done.planes.size());
+    ++sweeps;
+  }
+  state.counters["lines/sweep"] = static_cast<double>(lines) / sweeps;
+  state.counters["planes/sweep"] = static_cast<double>(planes) / sweeps;
+  state.counters["split_ms"] = 1e3 * split_s / sweeps;
+  state.counters["group_ms"] = 1e3 * group_s / sweeps;
+  state.counters["latency_ms"] = 1e3 * latency_s / sweeps;
+  state.counters["finish_ms"] = 1e3 * finish_s / sweeps;
+  state.counters["map_ms"] = 1e3 * map_s / sweeps;
+}
+BENCHMARK(Sweep1081x200)->Unit(benchmark::kMillisecond)->Iterations(5);
+
+BENCHMARK_MAIN();
