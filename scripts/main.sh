@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job: sets up (Debian packages), builds, repeats the paper's Figure 3
 # experiment on simulated UTM-30LX scans, splits the recording the package ships,
-# and leaves results/: figure3.csv, split_bag.txt, split.png and summary.txt.
+# evaluates sweeps of the stairs scene (planes, height map) against the truth,
+# and leaves results/: summary.txt, split.png, heightmap.png and the CSVs.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$here/scripts/setup.sh"
@@ -22,6 +23,12 @@ echo
 echo "== Split of the shipped recording (stairs scene, head sweeping 10..60 deg at 1 rad/s)"
 "$bin/split_bag" "$here/test/data/stairs.bag" --dump-scan 40 "$out/scan40.csv" | tee "$out/split_bag.txt"
 python3 "$here/scripts/plot_results.py" "$out/figure3.csv" "$out/scan40.csv" "$out/split.png"
+echo
+echo "== Sweeps of the stairs scene (head tilting 10..60 deg at 1 rad/s), judged against the truth"
+"$bin/evaluate" --scene stairs --sweeps 5 --dump "$out/stairs" | tee "$out/evaluate.csv"
+echo "== The same with one joint angle per scan line (at its stamp) instead of one per beam"
+"$bin/evaluate" --scene stairs --sweeps 5 --no-skew | tail -1 | tee "$out/evaluate_no_skew.txt"
+python3 "$here/scripts/plot_heightmap.py" "$out/stairs" "$out/heightmap.png" "$out/planes.txt"
 {
   echo "tilt_laser_perception main job, $(date -u +%Y-%m-%dT%H:%M:%SZ)"
   echo
@@ -30,7 +37,17 @@ python3 "$here/scripts/plot_results.py" "$out/figure3.csv" "$out/scan40.csv" "$o
   echo
   cat "$out/split_bag.txt"
   echo
-  echo "Picture: $out/split.png"
+  echo "Stairs scene, 5 sweeps (evaluate; per sweep, then means):"
+  column -s, -t < <(head -n -1 "$out/evaluate.csv")
+  tail -1 "$out/evaluate.csv"
+  echo
+  echo "With one joint angle per scan line instead of one per beam:"
+  cat "$out/evaluate_no_skew.txt"
+  echo
+  echo "Planes of the last sweep:"
+  cat "$out/planes.txt"
+  echo
+  echo "Pictures: $out/split.png, $out/heightmap.png"
 } > "$out/summary.txt"
 echo
-echo "results in $out: summary.txt, figure3.csv, split_bag.txt, split.png"
+echo "results in $out: summary.txt, split.png, heightmap.png, figure3.csv, split_bag.txt, evaluate.csv"

@@ -161,6 +161,7 @@ SweepEval judge(const Scene& scene, const core::SweepResult& sw, const std::map<
   const double t0 = cpuNow();
   core::buildHeightMap(sw, o.heightmap, grid);
   latency += cpuNow() - t0;
+  if (!o.dump_prefix.empty()) dumpSweep(sw, grid, o.dump_prefix);
   const core::HeightMapParams& hp = o.heightmap;
   const std::vector<float> truth_h = trueHeightMap(scene, hp.origin_x, hp.origin_y, hp.resolution, hp.width, hp.height);
   double se = 0.0;
@@ -243,6 +244,27 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
     }
   }
   return out;
+}
+
+void dumpSweep(const core::SweepResult& sw, const core::HeightMapGrid& grid, const std::string& prefix) {
+  if (std::FILE* f = std::fopen((prefix + "_planes.csv").c_str(), "w")) {
+    std::fprintf(f, "kind,id,a,b,c,d,e,f,g\n");
+    for (const core::Plane& p : sw.planes) {
+      std::fprintf(f, "plane,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n", p.id, p.area, p.fit.normal.x(), p.fit.normal.y(),
+                   p.fit.normal.z(), p.fit.centroid.x(), p.fit.centroid.y(), p.fit.centroid.z());
+      for (const auto& v : p.boundary) std::fprintf(f, "vertex,%d,%.4f,%.4f,%.4f,,,,\n", p.id, v.x(), v.y(), v.z());
+    }
+    std::fclose(f);
+  }
+  if (std::FILE* f = std::fopen((prefix + "_heightmap.bin").c_str(), "wb")) {
+    std::fwrite(grid.heights.data(), sizeof(float), grid.heights.size(), f);
+    std::fclose(f);
+  }
+  if (std::FILE* f = std::fopen((prefix + "_heightmap.txt").c_str(), "w")) {
+    std::fprintf(f, "%f %f %f %d %d\n", grid.params.origin_x, grid.params.origin_y, grid.params.resolution,
+                 grid.params.width, grid.params.height);
+    std::fclose(f);
+  }
 }
 
 std::string evalCsvHeader() {

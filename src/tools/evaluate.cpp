@@ -12,10 +12,11 @@ using namespace tilt_laser_perception;
 static void usage() {
   std::fprintf(stderr,
                "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--no-skew] [--fixed D]\n"
-               "                [--verbose]\n"
+               "                [--verbose] [--dump PREFIX]\n"
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
-               "  --verbose   list the faces each sweep missed\n");
+               "  --verbose   list the faces each sweep missed\n"
+               "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n");
 }
 
 int main(int argc, char** argv) {
@@ -31,6 +32,7 @@ int main(int argc, char** argv) {
     else if (a == "--no-skew") o.sweep.per_beam = false;
     else if (a == "--fixed" && v) { o.split.mode = core::SplitMode::Fixed; o.split.d_min = std::atof(argv[++i]); }
     else if (a == "--verbose") verbose = true;
+    else if (a == "--dump" && v) o.dump_prefix = argv[++i];
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
   if (o.sweeps < 1 || !(o.profile.speed > 0)) { usage(); return 2; }

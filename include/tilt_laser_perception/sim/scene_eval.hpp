@@ -34,7 +34,13 @@ struct SceneEvalOptions {
   core::SweepParams sweep;
   core::HeightMapParams heightmap;
   std::string head_file;                ///< empty: config/head.yaml
+  std::string dump_prefix;              ///< non-empty: the last sweep's planes and height map go to PREFIX_*
 };
+
+/// Writes a sweep's planes (PREFIX_planes.csv: one row per plane, then its
+/// boundary vertices) and height map (PREFIX_heightmap.bin: float32 heights,
+/// row-major; PREFIX_heightmap.txt: origin_x origin_y resolution width height).
+void dumpSweep(const core::SweepResult& sweep, const core::HeightMapGrid& grid, const std::string& prefix);
 
 struct SweepEval {
   int lines = 0, planes = 0, true_faces = 0;
