@@ -261,3 +261,59 @@ TEST(Figure3, AdaptiveThresholdBeatsFixedAtRange) {
     }
   }
 }
+
+#include <cstdio>
+
+#include "tilt_laser_perception/core/polyline_split.hpp"
+#include "tilt_laser_perception/sim/pcd.hpp"
+
+// segment_cloud's path: an organized cloud whose rows are scan lines (here a
+// stack of scans of a floor and a wall), written to PCD, read back, grouped.
+TEST(SegmentCloud, OrganizedCloudThroughPcd) {
+  const Scene s = Scene::parse(
+      "objects:\n  - {type: floor, center: [3, 0], size: [8, 8], z: 0}\n"
+      "  - {type: wall, from: [4, -4], to: [4, 4], height: 3}\n");
+  NoiseParams n;
+  LidarSimulator lidar(s, LidarModel(), n, 4);
+  sim::OrganizedCloud cloud;
+  cloud.width = 1081;
+  cloud.height = 40;
+  cloud.viewpoint = Eigen::Vector3d(0, 0, 1.4);
+  for (int row = 0; row < cloud.height; ++row) {
+    const double pitch = (15.0 + row) * kDeg;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = cloud.viewpoint;
+    T.rotate(Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()));
+    const sim::SimScan scan = lidar.scan(0.0, [&](double) { return T; });
+    for (int i = 0; i < 1081; ++i) {
+      const double r = scan.ranges[i], a = scan.model.angle(i);
+      const Eigen::Vector3f p = (T * Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0)).cast<float>();
+      cloud.points.push_back(std::isfinite(r) ? p : Eigen::Vector3f::Constant(NAN));
+    }
+  }
+  const std::string path = ::testing::TempDir() + "/tlp_cloud.pcd";
+  sim::writeLabeledPcd(path, cloud, std::vector<std::uint32_t>(cloud.points.size(), 7));
+  const sim::OrganizedCloud back = sim::readPcd(path);
+  ASSERT_EQ(back.width, 1081);
+  ASSERT_EQ(back.height, 40);
+  EXPECT_TRUE(back.viewpoint.isApprox(cloud.viewpoint));
+  EXPECT_EQ(back.points[5000], cloud.points[5000]);
+  std::vector<core::Plane> planes;
+  std::vector<std::uint32_t> labels;
+  core::segmentOrganized(back.points, back.width, back.height, true, back.viewpoint, core::SplitParams(),
+                         core::GroupingParams(), planes, labels);
+  int floors = 0, walls = 0;
+  for (const auto& p : planes) {
+    if (std::abs(p.fit.normal.z()) > 0.999 && std::abs(p.fit.offset) < 0.005 && p.area > 1.0) ++floors;
+    if (std::abs(p.fit.normal.x()) > 0.999 && std::abs(p.fit.centroid.x() - 4.0) < 0.01 && p.area > 0.5) ++walls;
+  }
+  EXPECT_EQ(floors, 1);
+  EXPECT_EQ(walls, 1);
+  std::size_t labeled = 0, valid = 0;
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    labeled += labels[i] != 0;
+    valid += std::isfinite(back.points[i].x());
+  }
+  EXPECT_GT(static_cast<double>(labeled) / valid, 0.9);
+  std::remove(path.c_str());
+}

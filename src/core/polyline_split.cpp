@@ -1,0 +1,111 @@
+#include "tilt_laser_perception/core/polyline_split.hpp"
+
+#include <cmath>
+#include <cstdint>
+
+namespace tilt_laser_perception {
+namespace core {
+
+void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3d& origin, const SplitParams& p,
+                   int line, std::vector<Segment3>& out) {
+  const int n = static_cast<int>(pts.size());
+  std::vector<double> r(n, 0.0);
+  std::vector<char> ok(n, 0);
+  for (int i = 0; i < n; ++i) {
+    ok[i] = std::isfinite(pts[i].x()) && std::isfinite(pts[i].y()) && std::isfinite(pts[i].z());
+    if (ok[i]) r[i] = (pts[i].cast<double>() - origin).norm();
+  }
+  const auto P = [&](int i) { return pts[i].cast<double>(); };
+  const auto emit = [&](int a, int b) {
+    if (b - a + 1 < p.min_points) return;
+    Segment3 s;
+    s.line = line;
+    s.first = a;
+    s.last = b;
+    double sum_r = 0.0;
+    for (int i = a; i <= b; ++i) {
+      s.moments.add(P(i));
+      sum_r += r[i];
+    }
+    s.range = sum_r / s.moments.n;
+    const Eigen::Vector3d c = s.moments.mean();
+    const Eigen::Vector3d d = (P(b) - P(a)).normalized();
+    s.start = c + d * d.dot(P(a) - c);
+    s.end = c + d * d.dot(P(b) - c);
+    out.push_back(s);
+  };
+  std::vector<std::pair<int, int>> stack;
+  int start = -1;
+  for (int i = 0; i <= n; ++i) {
+    const bool good = i < n && ok[i];
+    bool ends = start >= 0 && !good;
+    if (start >= 0 && good && std::abs(r[i] - r[i - 1]) > p.jumpThreshold(std::min(r[i], r[i - 1]))) ends = true;
+    if (ends) {
+      // Farthest-point split of the run [start, i - 1].
+      stack.assign(1, {start, i - 1});
+      std::vector<std::pair<int, int>> pieces;
+      while (!stack.empty()) {
+        const auto [a, b] = stack.back();
+        stack.pop_back();
+        int k = -1;
+        double dmax = 0.0;
+        if (b - a >= 2) {
+          const Eigen::Vector3d pa = P(a), ab = P(b) - pa;
+          const double len = ab.norm();
+          for (int j = a + 1; j < b; ++j) {
+            const double d = len > 0 ? ab.cross(P(j) - pa).norm() / len : (P(j) - pa).norm();
+            if (d > dmax) {
+              dmax = d;
+              k = j;
+            }
+          }
+        }
+        if (k >= 0 && dmax > p.threshold(r[k])) {
+          stack.emplace_back(k + 1, b);
+          stack.emplace_back(a, k);
+        } else {
+          pieces.emplace_back(a, b);
+        }
+      }
+      for (const auto& [a, b] : pieces) emit(a, b);
+      start = -1;
+    }
+    if (good && start < 0) start = i;
+  }
+}
+
+}  // namespace core
+}  // namespace tilt_laser_perception
+
+namespace tilt_laser_perception {
+namespace core {
+
+void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int height, bool rows,
+                      const Eigen::Vector3d& origin, const SplitParams& split, const GroupingParams& grouping,
+                      std::vector<Plane>& planes, std::vector<std::uint32_t>& labels) {
+  const int lines = rows ? height : width;
+  const int length = rows ? width : height;
+  const auto index = [&](int line, int i) {
+    return rows ? static_cast<std::size_t>(line) * width + i : static_cast<std::size_t>(i) * width + line;
+  };
+  ScanLineGrouper g(grouping);
+  g.reset(origin);
+  std::vector<Eigen::Vector3f> line_pts(length);
+  std::vector<Segment3> segs;
+  for (int l = 0; l < lines; ++l) {
+    for (int i = 0; i < length; ++i) line_pts[i] = points[index(l, i)];
+    segs.clear();
+    splitPolyline(line_pts, origin, split, l, segs);
+    g.addLine(segs);
+  }
+  g.finish(planes);
+  labels.assign(points.size(), 0);
+  for (const Plane& p : planes)
+    for (int m : p.members) {
+      const Segment3& s = g.segments()[m];
+      for (int i = s.first; i <= s.last; ++i) labels[index(s.line, i)] = static_cast<std::uint32_t>(p.id + 1);
+    }
+}
+
+}  // namespace core
+}  // namespace tilt_laser_perception
