@@ -26,7 +26,7 @@ PKGS=(
   python3-yaml
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs ros-diagnostic-msgs
   libtf2-msgs-dev ros-tf2-msgs libtf2-dev libtf2-ros-dev libtf2-eigen-dev python3-tf2-ros
-  liburdf-dev liburdfdom-dev liburdfdom-headers-dev
+  liburdf-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
   # libraries
   libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev
 )

@@ -1,6 +1,7 @@
-// rostest: the splitter and the grouper re-run on the shipped recording of the
-// stairs scene (replay.launch): the published planes and height map match the
-// scene: floor at 0, treads at 0.15, 0.30, 0.45, 0.60 m (within 1 cm), risers.
+// rostest: the planes and height map of the stairs scene, from the shipped
+// recording (grouper_replay.test: replay.launch) or from the emulated head
+// live (sim_pipeline.test: sim.launch), match the scene: floor at 0, treads at
+// 0.15, 0.30, 0.45, 0.60 m (within 1 cm), risers, and the height map's cells.
 #include <gtest/gtest.h>
 
 #include <cmath>
