@@ -216,3 +216,39 @@ TEST(LaserDriver, ReconnectsAfterDropsAndReboots) {
   drv.stop();
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t_stop).count(), 2.0);
 }
+
+TEST(DynamixelBus, SyncAndBulkInstructionsOnTheEmulatedServo) {
+  for (auto proto : {dynamixel::Protocol::V1, dynamixel::Protocol::V2}) {
+    const auto& tab = dynamixel::mx64Table(proto);
+    sim::ServoModel servo(0.25, sim::hostNow());
+    sim::Mx64Options mo;
+    mo.protocol = proto;
+    sim::Mx64Emulator emu(servo, mo);
+    emu.start();
+    dynamixel::PortHandler port;
+    std::string err;
+    ASSERT_TRUE(port.open(emu.devicePath(), 1000000, true, err)) << err;
+    dynamixel::Bus bus(port, proto);
+    std::uint16_t model = 0;
+    std::uint8_t e = 0;
+    ASSERT_EQ(bus.ping(1, &model, &e), dynamixel::TxResult::Ok);
+    EXPECT_EQ(model, tab.model);
+    // Sync write of the LED to servos 1 and 9 (only 1 is there).
+    ASSERT_EQ(bus.syncWrite(tab.led, {{1, 1}, {9, 1}}), dynamixel::TxResult::Ok);
+    std::this_thread::sleep_for(20ms);
+    EXPECT_EQ(emu.reg(tab.led), 1u);
+    std::vector<std::pair<std::uint8_t, std::uint32_t>> values;
+    ASSERT_EQ(bus.bulkRead({{1, tab.present_position}}, values), dynamixel::TxResult::Ok);
+    ASSERT_EQ(values.size(), 1u);
+    EXPECT_EQ(values[0].second, static_cast<std::uint32_t>(dynamixel::radToPosition(0.25)));
+    if (proto == dynamixel::Protocol::V2) {
+      ASSERT_EQ(bus.syncRead(tab.present_position, {1}, values), dynamixel::TxResult::Ok);
+      EXPECT_EQ(values.at(0).second, static_cast<std::uint32_t>(dynamixel::radToPosition(0.25)));
+      // A servo that is not there: a timeout, with what did answer.
+      EXPECT_EQ(bus.syncRead(tab.present_position, {1, 9}, values, 0.02), dynamixel::TxResult::Timeout);
+      EXPECT_EQ(values.size(), 1u);
+    } else {
+      EXPECT_EQ(bus.syncRead(tab.present_position, {1}, values), dynamixel::TxResult::NotSent);
+    }
+  }
+}

@@ -278,6 +278,83 @@ TxResult Bus::writeReg(std::uint8_t id, const Reg& reg, std::uint32_t value, std
   return write(id, reg.addr, d, error, ack, timeout);
 }
 
+TxResult Bus::syncWrite(const Reg& reg, const std::vector<std::pair<std::uint8_t, std::uint32_t>>& values) {
+  std::vector<std::uint8_t> params;
+  const int w = protocol_ == Protocol::V1 ? 1 : 2;
+  putLE(params, reg.addr, w);
+  putLE(params, reg.size, w);
+  for (const auto& [id, v] : values) {
+    params.push_back(id);
+    putLE(params, v, reg.size);
+  }
+  return transact(kBroadcastId, inst::kSyncWrite, params, nullptr, 0.0, false);
+}
+
+TxResult Bus::collect(const std::vector<std::uint8_t>& ids, const std::vector<std::uint16_t>& sizes,
+                      std::vector<std::pair<std::uint8_t, std::uint32_t>>& values, double timeout) {
+  values.clear();
+  std::string err;
+  std::size_t next = 0;
+  const double end = monotonicNow() + timeout * ids.size();
+  Packet p;
+  while (next < ids.size()) {
+    while (next < ids.size() && parser_.next(p)) {
+      if (p.id != ids[next] || p.params.size() != sizes[next]) continue;
+      values.emplace_back(p.id, getLE(p.params.data(), static_cast<int>(std::min<std::size_t>(4, p.params.size()))));
+      ++next;
+    }
+    if (next == ids.size()) break;
+    const double left = end - monotonicNow();
+    if (left <= 0) break;
+    std::uint8_t buf[256];
+    const long n = port_.read(buf, sizeof(buf), left, err);
+    if (n < 0) {
+      ++counters_.port_errors;
+      return TxResult::PortError;
+    }
+    if (n > 0) parser_.feed(buf, static_cast<std::size_t>(n));
+  }
+  if (next == ids.size()) {
+    ++counters_.ok;
+    return TxResult::Ok;
+  }
+  ++counters_.timeouts;
+  return TxResult::Timeout;
+}
+
+TxResult Bus::syncRead(const Reg& reg, const std::vector<std::uint8_t>& ids,
+                       std::vector<std::pair<std::uint8_t, std::uint32_t>>& values, double timeout) {
+  if (protocol_ != Protocol::V2) return TxResult::NotSent;
+  std::vector<std::uint8_t> params;
+  putLE(params, reg.addr, 2);
+  putLE(params, reg.size, 2);
+  params.insert(params.end(), ids.begin(), ids.end());
+  const TxResult r = transact(kBroadcastId, inst::kSyncRead, params, nullptr, 0.0, false);
+  if (r != TxResult::Ok) return r;
+  return collect(ids, std::vector<std::uint16_t>(ids.size(), reg.size), values, timeout);
+}
+
+TxResult Bus::bulkRead(const std::vector<std::pair<std::uint8_t, Reg>>& requests,
+                       std::vector<std::pair<std::uint8_t, std::uint32_t>>& values, double timeout) {
+  std::vector<std::uint8_t> params, ids;
+  std::vector<std::uint16_t> sizes;
+  if (protocol_ == Protocol::V1) params.push_back(0x00);
+  for (const auto& [id, reg] : requests) {
+    if (protocol_ == Protocol::V1) {
+      params.insert(params.end(), {reg.size, id, static_cast<std::uint8_t>(reg.addr)});
+    } else {
+      params.push_back(id);
+      putLE(params, reg.addr, 2);
+      putLE(params, reg.size, 2);
+    }
+    ids.push_back(id);
+    sizes.push_back(reg.size);
+  }
+  const TxResult r = transact(kBroadcastId, inst::kBulkRead, params, nullptr, 0.0, false);
+  if (r != TxResult::Ok) return r;
+  return collect(ids, sizes, values, timeout);
+}
+
 TxResult Bus::reboot(std::uint8_t id, std::uint8_t* error, double timeout) {
   if (protocol_ != Protocol::V2) return TxResult::NotSent;
   Packet p;

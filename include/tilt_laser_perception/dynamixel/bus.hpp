@@ -79,12 +79,23 @@ class Bus {
                     double timeout = 0.05);
   /// Reboot (2.0 only).
   TxResult reboot(std::uint8_t id, std::uint8_t* error, double timeout = 0.05);
+  /// Sync write: one register of several servos in one packet (no status packets).
+  TxResult syncWrite(const Reg& reg, const std::vector<std::pair<std::uint8_t, std::uint32_t>>& values);
+  /// Sync read (2.0 only): one register of several servos; `values` gets the ones that answered.
+  TxResult syncRead(const Reg& reg, const std::vector<std::uint8_t>& ids,
+                    std::vector<std::pair<std::uint8_t, std::uint32_t>>& values, double timeout = 0.05);
+  /// Bulk read: a register of each servo (any address and size each); `values` gets the ones that answered.
+  TxResult bulkRead(const std::vector<std::pair<std::uint8_t, Reg>>& requests,
+                    std::vector<std::pair<std::uint8_t, std::uint32_t>>& values, double timeout = 0.05);
 
   Protocol protocol() const { return protocol_; }
   const BusCounters& counters() const { return counters_; }
   void resetParser() { parser_.clear(); }
 
  private:
+  /// Status packets of `ids` (in that order) after a broadcast read; Ok only when all came.
+  TxResult collect(const std::vector<std::uint8_t>& ids, const std::vector<std::uint16_t>& sizes,
+                   std::vector<std::pair<std::uint8_t, std::uint32_t>>& values, double timeout);
   PortHandler& port_;
   Protocol protocol_;
   PacketParser parser_;
