@@ -36,6 +36,30 @@ double segmentDistance(const Segment3& a, const Segment3& b) {
 }
 }  // namespace
 
+bool makeSegment3(const std::vector<Eigen::Vector3d>& pts, const std::vector<double>& ranges, int line, int first,
+                  int last, Segment3& s) {
+  s = Segment3();
+  s.line = line;
+  s.first = first;
+  s.last = last;
+  double sum_r = 0.0;
+  for (int i = first; i <= last; ++i) {
+    if (!std::isfinite(pts[i].x())) continue;
+    s.moments.add(pts[i]);
+    sum_r += ranges[i];
+  }
+  if (s.moments.n < 2) return false;
+  s.range = sum_r / s.moments.n;
+  int a = first, b = last;
+  while (a < b && !std::isfinite(pts[a].x())) ++a;
+  while (b > a && !std::isfinite(pts[b].x())) --b;
+  const Eigen::Vector3d c = s.moments.mean();
+  const Eigen::Vector3d d = (pts[b] - pts[a]).normalized();
+  s.start = c + d * d.dot(pts[a] - c);
+  s.end = c + d * d.dot(pts[b] - c);
+  return true;
+}
+
 std::string GroupingParams::validate() const {
   std::ostringstream s;
   if (!(dist_min > 0.0)) s << "dist_min must be > 0";
@@ -112,6 +136,17 @@ bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
   Moments3 m = a.moments;
   m += b.moments;
   return fitPlane(m).rms < 0.5 * thr;
+}
+
+void ScanLineGrouper::addMember(int region, int si) {
+  Region& to = regions_[region];
+  const Segment3& s = segs_[si];
+  to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), si), si);
+  to.moments += s.moments;
+  to.fit = fitPlane(to.moments);
+  to.first_line = std::min(to.first_line, s.line);
+  to.last_line = std::max(to.last_line, s.line);
+  seg_region_[si] = region;
 }
 
 void ScanLineGrouper::absorb(int into, int from) {
@@ -258,19 +293,12 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
       }
     }
     if (best < 0) continue;
-    Region& to = regions_[best];
     own.members.erase(std::remove(own.members.begin(), own.members.end(), static_cast<int>(si)), own.members.end());
-    own.moments = Moments3();
-    for (int mi : own.members) own.moments += segs_[mi].moments;
-    own.fit = fitPlane(own.moments);
+    own.moments = rest;
+    own.fit = own_fit;
     own.first_line = segs_[own.members.front()].line;
     own.last_line = segs_[own.members.back()].line;
-    to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), static_cast<int>(si)), static_cast<int>(si));
-    to.moments += s.moments;
-    to.fit = fitPlane(to.moments);
-    to.first_line = std::min(to.first_line, s.line);
-    to.last_line = std::max(to.last_line, s.line);
-    seg_region_[si] = best;
+    addMember(best, static_cast<int>(si));
   }
 
   // Late joins: pieces of a line that the split cut short (or that came before
@@ -303,13 +331,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
       regions_[ri].members.clear();
       regions_[ri].dead = true;
     }
-    Region& to = regions_[best];
-    to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), static_cast<int>(si)), static_cast<int>(si));
-    to.moments += s.moments;
-    to.fit = fitPlane(to.moments);
-    to.first_line = std::min(to.first_line, s.line);
-    to.last_line = std::max(to.last_line, s.line);
-    seg_region_[si] = best;
+    addMember(best, static_cast<int>(si));
   }
 
   seg_plane_.assign(segs_.size(), -1);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 namespace tilt_laser_perception {
 namespace core {
@@ -11,28 +12,17 @@ void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3
   const int n = static_cast<int>(pts.size());
   std::vector<double> r(n, 0.0);
   std::vector<char> ok(n, 0);
+  std::vector<Eigen::Vector3d> pd(n);
   for (int i = 0; i < n; ++i) {
     ok[i] = std::isfinite(pts[i].x()) && std::isfinite(pts[i].y()) && std::isfinite(pts[i].z());
-    if (ok[i]) r[i] = (pts[i].cast<double>() - origin).norm();
+    pd[i] = pts[i].cast<double>();
+    if (!ok[i]) pd[i].setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (ok[i]) r[i] = (pd[i] - origin).norm();
   }
-  const auto P = [&](int i) { return pts[i].cast<double>(); };
+  const auto P = [&](int i) { return pd[i]; };
   const auto emit = [&](int a, int b) {
-    if (b - a + 1 < p.min_points) return;
     Segment3 s;
-    s.line = line;
-    s.first = a;
-    s.last = b;
-    double sum_r = 0.0;
-    for (int i = a; i <= b; ++i) {
-      s.moments.add(P(i));
-      sum_r += r[i];
-    }
-    s.range = sum_r / s.moments.n;
-    const Eigen::Vector3d c = s.moments.mean();
-    const Eigen::Vector3d d = (P(b) - P(a)).normalized();
-    s.start = c + d * d.dot(P(a) - c);
-    s.end = c + d * d.dot(P(b) - c);
-    out.push_back(s);
+    if (b - a + 1 >= p.min_points && makeSegment3(pd, r, line, a, b, s)) out.push_back(s);
   };
   std::vector<std::pair<int, int>> stack;
   int start = -1;

@@ -214,26 +214,7 @@ bool SweepAssembler::process(const LineInput& in) {
   for (const auto& [first, last] : in.segments) {
     if (first < 0 || last >= static_cast<int>(n) || last < first) continue;
     Segment3 s;
-    s.line = index;
-    s.first = first;
-    s.last = last;
-    double sum_r = 0.0;
-    for (int i = first; i <= last; ++i) {
-      if (!std::isfinite(pts[i].x())) continue;
-      s.moments.add(pts[i]);
-      sum_r += rng[i];
-    }
-    if (s.moments.n < 2) continue;
-    s.range = sum_r / s.moments.n;
-    // End points: the first and last points projected on the segment's own line.
-    int a = first, b = last;
-    while (a < b && !std::isfinite(pts[a].x())) ++a;
-    while (b > a && !std::isfinite(pts[b].x())) --b;
-    const Eigen::Vector3d c = s.moments.mean();
-    const Eigen::Vector3d d = (pts[b] - pts[a]).normalized();
-    s.start = c + d * d.dot(pts[a] - c);
-    s.end = c + d * d.dot(pts[b] - c);
-    segs.push_back(s);
+    if (makeSegment3(pts, rng, index, first, last, s)) segs.push_back(s);
   }
   grouper_.addLine(segs);
   current_.lines.push_back(std::move(line));

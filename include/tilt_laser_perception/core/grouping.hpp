@@ -28,6 +28,12 @@ struct Segment3 {
   double length() const { return (end - start).norm(); }
 };
 
+/// A segment of the points pts[first..last] (NaN points skipped) with their
+/// ranges: moments, mean range, and end points on the points' own line.
+/// False when fewer than two points are valid.
+bool makeSegment3(const std::vector<Eigen::Vector3d>& pts, const std::vector<double>& ranges, int line, int first,
+                  int last, Segment3& out);
+
 struct GroupingParams {
   double dist_min = 0.03;         ///< plane distance threshold floor [m]
   double dist_ratio = 0.015;      ///< threshold growth with range [1]
@@ -88,6 +94,7 @@ class ScanLineGrouper {
                                                                                          int line_hi) const;
   bool planesAgree(const Region& a, const Region& b) const;
   void absorb(int into, int from);
+  void addMember(int region, int segment);  // keeps members sorted, refits
   void buildPolygon(const Region& r, Plane& out) const;
 
   GroupingParams p_;
