@@ -48,7 +48,7 @@ class ScanClock {
     double scan_window = 30.0;      ///< scans used for the phase fit [s]
     double clock_window = 60.0;     ///< clock samples used for offset and drift [s]
     double max_rtt = 0.005;         ///< clock samples with a longer round trip are left out [s]
-    double rtt_margin = 0.0003;     ///< ... and those this much longer than the shortest seen [s]
+    double rtt_margin = 0.0001;     ///< ... and those this much longer than the shortest seen [s]
     double default_latency = 0.025; ///< arrival minus step 0 assumed without clock samples [s]
   };
 
