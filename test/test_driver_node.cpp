@@ -128,8 +128,8 @@ TEST(TiltLaserDriver, AgainstTheEmulatedHead) {
               rec.scans.size(), rate, warmup, max_err, rms, n);
   std::printf("ranges: median error %.4f m, %.1f %% within 6 cm (%d beams)\n", median, 100.0 * close / beams, beams);
   EXPECT_LT(max_err, 1.0);
-  // The goal is an RMS under 0.2 ms; on this shared 2-core machine runs give
-  // 0.03 to 0.25 ms (most under 0.2), so the test holds the line at 0.3 ms.
+  // The goal is an RMS under 0.2 ms; with the whole pipeline sharing 2 cores
+  // runs give 0.06 to 0.14 ms; the test leaves room for a busier CI machine.
   EXPECT_LT(rms, 0.3);
   EXPECT_LT(median, 0.012);                 // data sheet noise: sigma 10 mm, rounded to mm
   EXPECT_GT(static_cast<double>(close) / beams, 0.98);  // the rest: mixed pixels at depth jumps

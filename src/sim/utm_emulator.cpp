@@ -144,14 +144,16 @@ void UtmEmulator::run() {
       closeClient();
       ++stats_.drops;
     }
-    int timeout_ms = 20;
-    if (streaming_) {
-      const double due = scanStart(next_scan_) + kPeriod;
-      timeout_ms = std::clamp(static_cast<int>(std::ceil((due - now) * 1000.0)), 0, 20);
-    }
+    // Wake when the next scan is complete, to the microsecond (a millisecond
+    // timeout would add a saw-tooth to the arrival times that no sensor has).
+    double wait = 0.02;
+    if (streaming_) wait = std::clamp(scanStart(next_scan_) + kPeriod - now, 0.0, 0.02);
+    timespec ts;
+    ts.tv_sec = 0;
+    ts.tv_nsec = static_cast<long>(wait * 1e9);
     pollfd fds[2] = {{listen_fd_, POLLIN, 0}, {client_fd_, POLLIN, 0}};
-    const int nfds = client_fd_ >= 0 ? 2 : 1;
-    ::poll(fds, nfds, timeout_ms);
+    const nfds_t nfds = client_fd_ >= 0 ? 2 : 1;
+    ::ppoll(fds, nfds, &ts, nullptr);
     now = hostNow();
     if (fds[0].revents & POLLIN) {
       const int fd = ::accept(listen_fd_, nullptr, nullptr);
