@@ -8,23 +8,12 @@
 
 #include "tilt_laser_perception/scip/client.hpp"
 #include "tilt_laser_perception/sim/utm_emulator.hpp"
+#include "sim_room.hpp"
 
 using namespace tilt_laser_perception;
 
 namespace {
-struct Room {
-  sim::Scene scene = sim::loadScene("split_room");
-  sim::LidarSimulator lidar{scene, sim::LidarModel(), sim::NoiseParams(), 3};
-  std::mutex m;
-  sim::SimScan last;
-  sim::ScanSource source() {
-    return [this](double t0, sim::SimScan& out) {
-      std::lock_guard<std::mutex> l(m);
-      lidar.scan(t0, [](double) { return Eigen::Isometry3d::Identity(); }, out);
-      last = out;
-    };
-  }
-};
+using test::Room;
 
 struct StampStats {
   double max_abs = 0, rms = 0;

@@ -12,6 +12,7 @@
 #include "tilt_laser_perception/driver/servo_driver.hpp"
 #include "tilt_laser_perception/sim/mx64_emulator.hpp"
 #include "tilt_laser_perception/sim/utm_emulator.hpp"
+#include "sim_room.hpp"
 
 using namespace tilt_laser_perception;
 using namespace std::chrono_literals;
@@ -170,17 +171,10 @@ TEST_P(ServoDriverTest, RecoversFromEveryServoFault) {
 INSTANTIATE_TEST_SUITE_P(Protocols, ServoDriverTest, ::testing::Values(1, 2));
 
 TEST(LaserDriver, ReconnectsAfterDropsAndReboots) {
-  sim::Scene scene = sim::loadScene("split_room");
-  sim::LidarSimulator lidar(scene, sim::LidarModel(), sim::NoiseParams(), 3);
-  std::mutex m;
+  test::Room room;
   sim::UtmOptions uo;
   uo.reboot_time = 0.3;
-  sim::UtmEmulator utm(
-      [&](double t0, sim::SimScan& out) {
-        std::lock_guard<std::mutex> l(m);
-        lidar.scan(t0, [](double) { return Eigen::Isometry3d::Identity(); }, out);
-      },
-      uo);
+  sim::UtmEmulator utm(room.source(), uo);
   utm.start();
   driver::LaserDriverOptions lo;
   lo.host = "127.0.0.1";

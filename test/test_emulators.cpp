@@ -17,6 +17,7 @@
 #include "tilt_laser_perception/scip/codec.hpp"
 #include "tilt_laser_perception/sim/mx64_emulator.hpp"
 #include "tilt_laser_perception/sim/utm_emulator.hpp"
+#include "sim_room.hpp"
 
 using namespace tilt_laser_perception;
 using namespace tilt_laser_perception::sim;
@@ -66,17 +67,7 @@ class Client {
   scip::ResponseReader reader_;
 };
 
-struct Room {
-  Scene scene = loadScene("split_room");
-  LidarSimulator lidar{scene, LidarModel(), NoiseParams(), 3};
-  std::mutex m;
-  ScanSource source() {
-    return [this](double t0, SimScan& out) {
-      std::lock_guard<std::mutex> l(m);
-      lidar.scan(t0, [](double) { return Eigen::Isometry3d::Identity(); }, out);
-    };
-  }
-};
+using tilt_laser_perception::test::Room;
 
 }  // namespace
 

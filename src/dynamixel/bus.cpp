@@ -164,6 +164,18 @@ const char* txResultName(TxResult r) {
   return "unknown";
 }
 
+bool Bus::receive(double timeout) {
+  std::uint8_t buf[256];
+  std::string err;
+  const long n = port_.read(buf, sizeof(buf), timeout, err);
+  if (n < 0) {
+    ++counters_.port_errors;
+    return false;
+  }
+  if (n > 0) parser_.feed(buf, static_cast<std::size_t>(n));
+  return true;
+}
+
 TxResult Bus::transact(std::uint8_t id, std::uint8_t instruction, const std::vector<std::uint8_t>& params,
                        Packet* status, double timeout, bool expect_status) {
   ++counters_.transactions;
@@ -200,13 +212,7 @@ TxResult Bus::transact(std::uint8_t id, std::uint8_t instruction, const std::vec
     }
     const double left = end - monotonicNow();
     if (left <= 0) break;
-    std::uint8_t buf[256];
-    const long n = port_.read(buf, sizeof(buf), left, err);
-    if (n < 0) {
-      ++counters_.port_errors;
-      return TxResult::PortError;
-    }
-    if (n > 0) parser_.feed(buf, static_cast<std::size_t>(n));
+    if (!receive(left)) return TxResult::PortError;
   }
   counters_.garbage_bytes += parser_.garbageBytes() - last_garbage_;
   last_garbage_ = parser_.garbageBytes();
@@ -293,7 +299,6 @@ TxResult Bus::syncWrite(const Reg& reg, const std::vector<std::pair<std::uint8_t
 TxResult Bus::collect(const std::vector<std::uint8_t>& ids, const std::vector<std::uint16_t>& sizes,
                       std::vector<std::pair<std::uint8_t, std::uint32_t>>& values, double timeout) {
   values.clear();
-  std::string err;
   std::size_t next = 0;
   const double end = monotonicNow() + timeout * ids.size();
   Packet p;
@@ -306,13 +311,7 @@ TxResult Bus::collect(const std::vector<std::uint8_t>& ids, const std::vector<st
     if (next == ids.size()) break;
     const double left = end - monotonicNow();
     if (left <= 0) break;
-    std::uint8_t buf[256];
-    const long n = port_.read(buf, sizeof(buf), left, err);
-    if (n < 0) {
-      ++counters_.port_errors;
-      return TxResult::PortError;
-    }
-    if (n > 0) parser_.feed(buf, static_cast<std::size_t>(n));
+    if (!receive(left)) return TxResult::PortError;
   }
   if (next == ids.size()) {
     ++counters_.ok;

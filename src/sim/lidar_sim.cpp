@@ -15,6 +15,14 @@ double NoiseParams::sigma(double r) const {
   return 0.0;
 }
 
+bool parseNoiseMode(const std::string& name, NoiseMode& mode) {
+  if (name == "datasheet") mode = NoiseMode::Datasheet;
+  else if (name == "percent") mode = NoiseMode::Percent;
+  else if (name == "none") mode = NoiseMode::None;
+  else return false;
+  return true;
+}
+
 core::ScanView SimScan::view() const {
   core::ScanView v;
   v.ranges = ranges.data();

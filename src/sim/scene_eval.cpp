@@ -33,8 +33,9 @@ struct LineTruth {
   std::vector<core::EdgePoint> found;
 };
 
-SweepEval judge(const Scene& scene, const core::SweepResult& sw, const std::map<double, LineTruth>& truth,
-                const std::map<double, double>& split_time, const SceneEvalOptions& o, double latency) {
+SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const core::SweepResult& sw,
+                const std::map<double, LineTruth>& truth, const std::map<double, double>& split_time,
+                const SceneEvalOptions& o, double latency) {
   SweepEval e;
   e.lines = static_cast<int>(sw.lines.size());
   e.planes = static_cast<int>(sw.planes.size());
@@ -163,7 +164,6 @@ SweepEval judge(const Scene& scene, const core::SweepResult& sw, const std::map<
   latency += cpuNow() - t0;
   if (!o.dump_prefix.empty()) dumpSweep(sw, grid, o.dump_prefix);
   const core::HeightMapParams& hp = o.heightmap;
-  const std::vector<float> truth_h = trueHeightMap(scene, hp.origin_x, hp.origin_y, hp.resolution, hp.width, hp.height);
   double se = 0.0;
   int known = 0, expected_cells = 0;
   for (int iy = 0; iy < hp.height; ++iy)
@@ -205,6 +205,8 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   std::map<double, LineTruth> truth;
   std::map<double, double> split_time;
   std::vector<SweepEval> out;
+  const core::HeightMapParams& hp = o.heightmap;
+  const std::vector<float> truth_h = trueHeightMap(scene, hp.origin_x, hp.origin_y, hp.resolution, hp.width, hp.height);
   double next_joint = 0.0, next_scan = 0.0;
   const double joint_period = 1.0 / o.joint_rate;
   for (double t = 0.0; static_cast<int>(out.size()) < o.sweeps && t < 600.0; t += 0.001) {
@@ -238,7 +240,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
     }
     core::SweepResult done;
     while (assembler.poll(t, done)) {
-      out.push_back(judge(scene, done, truth, split_time, o, done.finish_seconds));
+      out.push_back(judge(scene, truth_h, done, truth, split_time, o, done.finish_seconds));
       // Forget the truth of lines before this sweep.
       truth.erase(truth.begin(), truth.lower_bound(done.start));
     }

@@ -35,10 +35,7 @@ int main(int argc, char** argv) {
     else if (a == "--zeta" && has_value) adaptive.zeta = std::atof(argv[++i]);
     else if (a == "--fixed" && has_value) adaptive.d_min = std::atof(argv[++i]);
     else if (a == "--noise" && has_value) {
-      const std::string m = argv[++i];
-      if (m == "datasheet") noise.mode = sim::NoiseMode::Datasheet;
-      else if (m == "percent") noise.mode = sim::NoiseMode::Percent;
-      else { usage(); return 2; }
+      if (!sim::parseNoiseMode(argv[++i], noise.mode)) { usage(); return 2; }
     } else if (a == "--check") check = true;
     else if (a == "--no-merge") adaptive.merge = false;
     else { usage(); return a == "--help" || a == "-h" ? 0 : 2; }

@@ -65,11 +65,7 @@ int main(int argc, char** argv) {
     else if (a == "--head" && v) head_path = argv[++i];
     else if (a == "--truth") with_truth = true;
     else if (a == "--noise" && v) {
-      const std::string m = argv[++i];
-      if (m == "datasheet") noise.mode = sim::NoiseMode::Datasheet;
-      else if (m == "percent") noise.mode = sim::NoiseMode::Percent;
-      else if (m == "none") noise.mode = sim::NoiseMode::None;
-      else { usage(); return 2; }
+      if (!sim::parseNoiseMode(argv[++i], noise.mode)) { usage(); return 2; }
     } else { usage(); return 2; }
   }
   if (scene_name.empty() || out.empty() || !(duration > 0) || !(max_deg > min_deg) || !(speed > 0)) {

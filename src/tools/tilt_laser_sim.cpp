@@ -96,11 +96,7 @@ int main(int argc, char** argv) {
     else if (a == "--head" && v) head_path = argv[++i];
     else if (a == "--duration" && v) duration = std::atof(argv[++i]);
     else if (a == "--noise" && v) {
-      const std::string m = argv[++i];
-      if (m == "datasheet") noise.mode = sim::NoiseMode::Datasheet;
-      else if (m == "percent") noise.mode = sim::NoiseMode::Percent;
-      else if (m == "none") noise.mode = sim::NoiseMode::None;
-      else { usage(); return 2; }
+      if (!sim::parseNoiseMode(argv[++i], noise.mode)) { usage(); return 2; }
     } else if (a == "--fault" && v) {
       Fault f;
       if (!parseFault(argv[++i], f)) {

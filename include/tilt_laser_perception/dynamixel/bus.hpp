@@ -93,6 +93,8 @@ class Bus {
   void resetParser() { parser_.clear(); }
 
  private:
+  /// Feeds what arrives within `timeout` [s] to the parser; false when the port is gone.
+  bool receive(double timeout);
   /// Status packets of `ids` (in that order) after a broadcast read; Ok only when all came.
   TxResult collect(const std::vector<std::uint8_t>& ids, const std::vector<std::uint16_t>& sizes,
                    std::vector<std::pair<std::uint8_t, std::uint32_t>>& values, double timeout);

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -56,6 +57,9 @@ struct NoiseParams {
   /// Standard deviation of the range noise at range r [m].
   double sigma(double r) const;
 };
+
+/// "datasheet", "percent" or "none"; false for anything else.
+bool parseNoiseMode(const std::string& name, NoiseMode& mode);
 
 /// A true edge of the scan line, for scoring edge points.
 struct TrueEdge {
