@@ -4,6 +4,7 @@
 // 0.15, 0.30, 0.45, 0.60 m (within 1 cm), risers, and the height map's cells.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 
@@ -47,7 +48,7 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
     ros::spinOnce();
     {
       std::lock_guard<std::mutex> l(m);
-      if (planes.size() >= 2 && maps.size() >= 2) break;
+      if (planes.size() >= 3 && maps.size() >= 3) break;
     }
     ros::WallDuration(0.05).sleep();
   }
@@ -55,6 +56,7 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
   ASSERT_GE(planes.size(), 1u) << "no planes published";
   ASSERT_GE(maps.size(), 1u) << "no height map published";
   std::vector<int> tread_seen(4, 0);
+  int most_risers = 0;
   for (const PlanePolygonArray& arr : planes) {
     EXPECT_EQ(arr.header.frame_id, "base_footprint");
     // Horizontal planes: the floor (largest) at 0, the treads at their heights.
@@ -84,8 +86,11 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
       tread_seen[k] += best < 0.01;
     }
     EXPECT_GE(treads, 3) << "fewer than 3 treads found within 1 cm in one sweep";
-    EXPECT_GE(risers, 2);
+    // A riser is crossed by two or three scan lines only: some sweeps lose one.
+    EXPECT_GE(risers, 1);
+    most_risers = std::max(most_risers, risers);
   }
+  EXPECT_GE(most_risers, 3) << "no sweep found three of the four risers";
   for (int k = 0; k < 4; ++k) EXPECT_GE(tread_seen[k], 1) << "tread " << k + 1 << " never found within 1 cm";
   for (const HeightMap& map : maps) {
     EXPECT_NEAR(map.resolution, 0.01, 1e-6);
