@@ -2,13 +2,19 @@
 # The main job: sets up (Debian packages), builds, repeats the paper's Figure 3
 # experiment on simulated UTM-30LX scans, splits the recording the package ships,
 # evaluates sweeps of the stairs scene (planes, height map) against the truth,
-# and leaves results/: summary.txt, split.png, heightmap.png and the CSVs.
+# then starts the emulated head on the stairs scene with the whole pipeline
+# (sim.launch), listens to a few sweeps and takes an rviz screenshot under Xvfb.
+# Leaves results/: summary.txt, heightmap.png (live height map and plane
+# outlines), rviz.png, split.png and the CSVs.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$here/scripts/setup.sh"
 SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-dpkg-query -W -f='${Status}' python3-matplotlib 2>/dev/null | grep -q "install ok installed" ||
-  $SUDO apt-get install -y -qq --no-install-recommends python3-matplotlib
+extra=()
+for p in python3-matplotlib rviz xvfb; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || extra+=("$p")
+done
+[ ${#extra[@]} -eq 0 ] || $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${extra[@]}"
 bash "$here/scripts/build.sh"
 export PATH="/usr/bin:$PATH"
 ws="${TLP_WS:-$here/build_ws}"
@@ -28,26 +34,52 @@ echo "== Sweeps of the stairs scene (head tilting 10..60 deg at 1 rad/s), judged
 "$bin/evaluate" --scene stairs --sweeps 5 --dump "$out/stairs" | tee "$out/evaluate.csv"
 echo "== The same with one joint angle per scan line (at its stamp) instead of one per beam"
 "$bin/evaluate" --scene stairs --sweeps 5 --no-skew | tail -1 | tee "$out/evaluate_no_skew.txt"
-python3 "$here/scripts/plot_heightmap.py" "$out/stairs" "$out/heightmap.png" "$out/planes.txt"
+python3 "$here/scripts/plot_heightmap.py" "$out/stairs" "$out/heightmap_evaluate.png"
+echo
+echo "== The emulated head on the stairs scene with the whole pipeline (sim.launch): 5 sweeps, rviz"
+export ROS_HOME="${ROS_HOME:-$ws/ros_home}"
+mkdir -p "$ROS_HOME"
+port=$(( 11000 + RANDOM % 1000 ))
+export ROS_MASTER_URI="http://localhost:$port"
+roslaunch -p "$port" tilt_laser_perception sim.launch port:=$(( port + 1000 )) \
+  servo_link:=/tmp/tlp_main_servo_$port >"$out/sim_launch.log" 2>&1 &
+launch=$!
+trap 'kill -INT $launch 2>/dev/null; wait $launch 2>/dev/null || true' EXIT
+# the scene's horizontal faces: floor, four treads, the box's top
+live_ok=0
+python3 "$here/scripts/live_summary.py" --sweeps 5 --prefix "$out/live" --levels 0,0.15,0.30,0.45,0.60 \
+  --timeout 90 || live_ok=$?
+bash "$here/scripts/rviz_screenshot.sh" "$out/rviz.png" 15
+shot_ok=0
+python3 "$here/scripts/check_screenshot.py" "$out/rviz.png" | tee "$out/rviz_check.txt" || shot_ok=$?
+kill -INT $launch 2>/dev/null; wait $launch 2>/dev/null || true
+trap - EXIT
+python3 "$here/scripts/plot_heightmap.py" "$out/live" "$out/heightmap.png"
 {
   echo "tilt_laser_perception main job, $(date -u +%Y-%m-%dT%H:%M:%SZ)"
   echo
-  echo "Figure 3 (means per scan over 20 seeds):"
+  echo "== Live: the emulated head on the stairs scene, whole pipeline in one nodelet manager (sim.launch)"
+  cat "$out/live_summary.txt"
+  echo "rviz screenshot check:"
+  sed 's/^/  /' "$out/rviz_check.txt"
+  echo
+  echo "== Figure 3 (means per scan over 20 seeds):"
   column -s, -t < "$out/figure3.csv"
   echo
   cat "$out/split_bag.txt"
   echo
-  echo "Stairs scene, 5 sweeps (evaluate; per sweep, then means):"
+  echo "== Stairs scene, 5 simulated sweeps judged against the truth (evaluate; per sweep, then means):"
   column -s, -t < <(head -n -1 "$out/evaluate.csv")
   tail -1 "$out/evaluate.csv"
   echo
   echo "With one joint angle per scan line instead of one per beam:"
   cat "$out/evaluate_no_skew.txt"
   echo
-  echo "Planes of the last sweep:"
-  cat "$out/planes.txt"
-  echo
-  echo "Pictures: $out/split.png, $out/heightmap.png"
+  echo "Pictures: $out/heightmap.png (live), $out/rviz.png, $out/split.png, $out/heightmap_evaluate.png"
 } > "$out/summary.txt"
 echo
-echo "results in $out: summary.txt, split.png, heightmap.png, figure3.csv, split_bag.txt, evaluate.csv"
+cat "$out/summary.txt"
+echo
+echo "results in $out: summary.txt, heightmap.png, rviz.png, split.png, figure3.csv, split_bag.txt, evaluate.csv"
+[ "$live_ok" -eq 0 ] || { echo "the live planes do not match the scene (see above)"; exit 1; }
+[ "$shot_ok" -eq 0 ] || { echo "the rviz screenshot misses a display (see above)"; exit 1; }

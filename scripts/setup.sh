@@ -29,6 +29,8 @@ PKGS=(
   liburdf-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
   # libraries
   libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev
+  # python tests and scripts
+  python3-pytest python3-numpy python3-pil
 )
 export DEBIAN_FRONTEND=noninteractive
 missing=()

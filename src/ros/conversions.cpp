@@ -19,6 +19,10 @@ core::ScanView toScanView(const sensor_msgs::LaserScan& scan) {
 }
 
 namespace {
+// Warm and green hues only (no blue: that is the height map's).
+const float planePalette[8][3] = {{0.95f, 0.55f, 0.10f}, {0.95f, 0.85f, 0.20f}, {0.85f, 0.20f, 0.15f},
+                                  {0.40f, 0.80f, 0.25f}, {0.90f, 0.45f, 0.65f}, {0.70f, 0.70f, 0.10f},
+                                  {0.75f, 0.30f, 0.80f}, {0.60f, 0.90f, 0.40f}};
 geometry_msgs::Point point(const Eigen::Vector2d& p) {
   geometry_msgs::Point q;
   q.x = p.x();
@@ -89,10 +93,8 @@ void segmentMarkers(const ScanSegments& seg, visualization_msgs::MarkerArray& ma
   lines.color = color(1, 1, 1);
   lines.points.clear();
   lines.colors.clear();
-  static const float palette[6][3] = {{0.9f, 0.6f, 0.0f}, {0.35f, 0.7f, 0.9f}, {0.0f, 0.6f, 0.5f},
-                                      {0.95f, 0.9f, 0.25f}, {0.8f, 0.4f, 0.7f}, {0.6f, 0.6f, 0.6f}};
   for (std::size_t i = 0; i < seg.segments.size(); ++i) {
-    const float* p = palette[i % 6];
+    const float* p = planePalette[i % 8];
     lines.points.push_back(seg.segments[i].start);
     lines.points.push_back(seg.segments[i].end);
     lines.colors.push_back(color(p[0], p[1], p[2]));
@@ -140,12 +142,15 @@ geometry_msgs::Point32 point32(const Eigen::Vector3d& p) {
   return q;
 }
 void heightColor(double t, float& r, float& g, float& b) {
-  // blue (low) -> green -> red (high)
+  // dark blue (low) -> cyan -> pale blue-white (high): the height map keeps to
+  // blue hues so that the plane polygons (warm colours, planePalette) stand
+  // apart from it in rviz and in the screenshot check
   t = std::max(0.0, std::min(1.0, t));
-  r = static_cast<float>(std::max(0.0, 2.0 * t - 1.0));
-  b = static_cast<float>(std::max(0.0, 1.0 - 2.0 * t));
-  g = static_cast<float>(1.0 - r - b);
+  r = static_cast<float>(t < 0.5 ? 0.0 : 0.9 * (t - 0.5));
+  g = static_cast<float>(0.15 + 0.75 * t);
+  b = static_cast<float>(0.55 + 0.45 * t);
 }
+
 }  // namespace
 
 bool tiltChainFromUrdf(const urdf::Model& model, const std::string& joint_name, const std::string& laser_frame,
@@ -353,8 +358,6 @@ std::vector<int> triangulate(const std::vector<Eigen::Vector2d>& pts) {
 
 void planeMarkers(const std::vector<core::Plane>& planes, const std_msgs::Header& header,
                   visualization_msgs::MarkerArray& markers) {
-  static const float palette[8][3] = {{0.9f, 0.6f, 0.0f}, {0.35f, 0.7f, 0.9f}, {0.0f, 0.6f, 0.5f}, {0.95f, 0.9f, 0.25f},
-                                      {0.0f, 0.45f, 0.7f}, {0.8f, 0.4f, 0.0f}, {0.8f, 0.6f, 0.7f}, {0.5f, 0.8f, 0.3f}};
   markers.markers.clear();
   visualization_msgs::Marker clear;
   clear.action = visualization_msgs::Marker::DELETEALL;
@@ -373,7 +376,7 @@ void planeMarkers(const std::vector<core::Plane>& planes, const std_msgs::Header
   arrows.scale.x = 0.015;
   fill.color.a = lines.color.a = arrows.color.a = 1.0;
   for (const core::Plane& p : planes) {
-    const float* c = palette[p.id % 8];
+    const float* c = planePalette[p.id % 8];
     std_msgs::ColorRGBA col;
     col.r = c[0];
     col.g = c[1];
