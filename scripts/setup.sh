@@ -30,7 +30,9 @@ PKGS=(
   # libraries
   libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev
   # python tests and scripts
-  python3-pytest python3-numpy python3-pil
+  python3-pytest python3-numpy python3-pil python3-rospy
+  # rviz (the launch files start it on request; the main job takes a screenshot under Xvfb)
+  rviz xvfb
 )
 export DEBIAN_FRONTEND=noninteractive
 missing=()

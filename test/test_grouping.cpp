@@ -170,18 +170,23 @@ TEST(JointBuffer, InterpolatesAndRefusesGaps) {
 }
 
 namespace {
-std::vector<SweepResult> runTriangle(double max_dropped_fraction, SweepCounters* counters) {
+// The simulated clock of runTriangle, for base pose callbacks that depend on it.
+double g_now = 0.0;
+
+std::vector<SweepResult> runTriangle(double max_dropped_fraction, SweepCounters* counters,
+                                     SweepAssembler::BasePose base_pose = nullptr) {
   SweepParams p;
   p.min_lines = 3;
   p.max_dropped_fraction = max_dropped_fraction;
   TiltChain chain;
   chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
-  SweepAssembler a(p, chain);
+  SweepAssembler a(p, chain, std::move(base_pose));
   // Triangle tilt: 0.2 -> 0.8 rad in 0.6 s, then back.
   const auto q_at = [](double t) { const double ph = std::fmod(t, 1.2); return ph < 0.6 ? 0.2 + ph : 1.4 - ph; };
   std::vector<SweepResult> sweeps;
   double next_scan = 0.0;
   for (double t = 0.0; t < 3.0; t += 0.005) {
+    g_now = t;
     if (!(t > 1.5 && t < 1.56)) a.addJoint(t, q_at(t));  // 60 ms without joint states
     if (t >= next_scan + 0.025) {
       LineInput in;
@@ -222,6 +227,44 @@ TEST(SweepAssembler, CutsSweepsAtReversalsAndDropsLinesWithoutJointStates) {
       EXPECT_GE(l.stamp + 0.005, s.start);  // never mixed
       EXPECT_LE(l.stamp + 0.005, s.end);
     }
+}
+
+TEST(SweepAssembler, WaitsForLateTransformsAndDropsLinesInATfGap) {
+  using Status = SweepAssembler::PoseStatus;
+  // The head's base is 0.5 m up and its transforms arrive 0.1 s late (within
+  // max_wait, 0.3 s): lines wait for them and none is lost.
+  const auto late = [](double t, Eigen::Isometry3d& pose) {
+    if (t > g_now - 0.1) return Status::Wait;
+    pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(0, 0, 0.5);
+    return Status::Ok;
+  };
+  SweepCounters c;
+  std::vector<SweepResult> sweeps = runTriangle(0.2, &c, late);
+  ASSERT_EQ(sweeps.size(), 3u);
+  EXPECT_EQ(c.lines_no_pose, 0u);
+  EXPECT_EQ(sweeps[0].dropped_lines, 0);
+  // ranges of 2 m from a laser 1.9 m up, tilted 0.2..0.8 rad down: the points
+  // lie at 1.9 - 2 sin(q) (the chain's own offset is 1.4 m)
+  const SweepLine& l = sweeps[0].lines[5];
+  EXPECT_NEAR(l.points[5].z(), 1.9 - 2.0 * std::sin(l.tilt[5]), 1e-4);
+
+  // Transforms that never come for 2.0 .. 2.1 s: the lines of that span are dropped, the others wait.
+  const auto gap = [&](double t, Eigen::Isometry3d& pose) {
+    if (t > 2.0 && t < 2.1) return Status::Missing;
+    return late(t, pose);
+  };
+  sweeps = runTriangle(0.3, &c, gap);
+  ASSERT_EQ(sweeps.size(), 3u);
+  EXPECT_GE(c.lines_no_pose, 3u);
+  EXPECT_LE(c.lines_no_pose, 5u);
+  EXPECT_EQ(static_cast<unsigned>(sweeps[2].dropped_lines), c.lines_no_pose);
+
+  // Transforms that never arrive at all: every line waits max_wait, then is dropped, and no sweep is made.
+  const auto never = [](double, Eigen::Isometry3d&) { return Status::Wait; };
+  sweeps = runTriangle(0.2, &c, never);
+  EXPECT_TRUE(sweeps.empty());
+  EXPECT_GE(c.lines_no_pose, 100u);
 }
 
 TEST(HeightMap, FillsPolygonsAndMarksObstacles) {

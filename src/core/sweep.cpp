@@ -128,18 +128,12 @@ bool SweepAssembler::finishSweep(double end, SweepResult& out) {
   return true;
 }
 
-bool SweepAssembler::process(const LineInput& in) {
+bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base) {
   const double t0 = cpuNow();
   const std::size_t n = in.ranges.size();
   if (n < 2 || !(in.angle_increment > 0.0) || (!in.intensities.empty() && in.intensities.size() != n)) {
     ++counters_.lines_bad;
     warning_ = "malformed scan line: dropped";
-    return false;
-  }
-  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
-  if (base_pose_ && !base_pose_(in.stamp + 0.5 * (n - 1) * in.time_increment, base)) {
-    ++counters_.lines_no_pose;
-    warning_ = "no pose of the head at the scan's time (tf gap): line dropped";
     return false;
   }
   SweepLine line;
@@ -257,10 +251,19 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       queue_.pop_front();
       continue;
     }
+    Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+    const PoseStatus pose = base_pose_ ? base_pose_(mid, base) : PoseStatus::Ok;
+    if (pose == PoseStatus::Wait && now - queue_.front().second <= p_.max_wait) return false;  // wait for tf
     if (last_line_stamp_ > -1e299) line_period_ = in.stamp - last_line_stamp_;
     last_line_stamp_ = in.stamp;
     last_mid_ = mid;
-    if (in_sweep_ && !process(in)) ++current_.dropped_lines;
+    if (pose != PoseStatus::Ok) {
+      ++counters_.lines_no_pose;
+      warning_ = "no pose of the head at the scan's time (tf gap): line dropped";
+      if (in_sweep_) ++current_.dropped_lines;
+    } else if (in_sweep_ && !process(in, base)) {
+      ++current_.dropped_lines;
+    }
     queue_.pop_front();
   }
   // The next line's middle will be past a known reversal: every line of the

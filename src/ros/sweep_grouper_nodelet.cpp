@@ -110,12 +110,18 @@ bool SweepGrouperNodelet::setupChain() {
   core::TiltChain chain;
   if (!tiltChainFromUrdf(model, joint_name_, laser_frame_, chain, parent_link_, chain_error_)) return false;
   const auto base_pose = [this](double t, Eigen::Isometry3d& pose) {
+    using Status = core::SweepAssembler::PoseStatus;
     try {
-      const auto tf = tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(t), ros::Duration(0.0));
-      pose = tf2::transformToEigen(tf);
-      return true;
+      pose = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(t)));
+      return Status::Ok;
     } catch (const tf2::TransformException&) {
-      return false;
+    }
+    // Not yet (the transforms stop short of t: wait for them) or a gap?
+    try {
+      const auto latest = tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(0));
+      return latest.header.stamp.toSec() < t ? Status::Wait : Status::Missing;
+    } catch (const tf2::TransformException&) {
+      return Status::Wait;  // no transform at all yet
     }
   };
   assembler_ = std::make_unique<core::SweepAssembler>(sweep_params_, chain, base_pose);

@@ -100,8 +100,12 @@ struct LineInput {
 
 class SweepAssembler {
  public:
-  /// Pose of the chain's base frame in the assembly frame at time t; false when unknown (a tf gap).
-  using BasePose = std::function<bool(double t, Eigen::Isometry3d& pose)>;
+  /// Whether the pose of the chain's base is known at a time: Ok; Wait (not
+  /// yet: the transforms have not reached that time, the line waits up to
+  /// max_wait); Missing (a gap that will not fill: the line is dropped).
+  enum class PoseStatus { Ok, Wait, Missing };
+  /// Pose of the chain's base frame in the assembly frame at time t.
+  using BasePose = std::function<PoseStatus(double t, Eigen::Isometry3d& pose)>;
 
   SweepAssembler(const SweepParams& params, const TiltChain& chain, BasePose base_pose = nullptr);
   void setParams(const SweepParams& p);
@@ -119,7 +123,7 @@ class SweepAssembler {
   const std::string& lastWarning() const { return warning_; }
 
  private:
-  bool process(const LineInput& in);
+  bool process(const LineInput& in, const Eigen::Isometry3d& base);
   bool finishSweep(double end, SweepResult& out);
   void beginSweep(double start);
 
