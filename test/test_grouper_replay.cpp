@@ -43,18 +43,23 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
   ros::NodeHandle nh;
   ros::Subscriber s1 = nh.subscribe("planes", 10, onPlanes);
   ros::Subscriber s2 = nh.subscribe("height_map", 10, onMap);
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(40.0);
+  int want = 3;
+  double timeout = 40.0;
+  ros::param::param("~sweeps", want, want);
+  ros::param::param("~timeout", timeout, timeout);
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
   while (ros::ok() && ros::WallTime::now() < end) {
     ros::spinOnce();
     {
       std::lock_guard<std::mutex> l(m);
-      if (planes.size() >= 3 && maps.size() >= 3) break;
+      if (planes.size() >= static_cast<std::size_t>(want) && maps.size() >= static_cast<std::size_t>(want)) break;
     }
     ros::WallDuration(0.05).sleep();
   }
   std::lock_guard<std::mutex> l(m);
   ASSERT_GE(planes.size(), 1u) << "no planes published";
   ASSERT_GE(maps.size(), 1u) << "no height map published";
+  EXPECT_GE(planes.size(), static_cast<std::size_t>(want)) << "fewer sweeps than asked for within the time";
   std::vector<int> tread_seen(4, 0);
   int most_risers = 0;
   for (const PlanePolygonArray& arr : planes) {

@@ -111,17 +111,30 @@ bool SweepGrouperNodelet::setupChain() {
   if (!tiltChainFromUrdf(model, joint_name_, laser_frame_, chain, parent_link_, chain_error_)) return false;
   const auto base_pose = [this](double t, Eigen::Isometry3d& pose) {
     using Status = core::SweepAssembler::PoseStatus;
-    try {
+    const auto lookup = [&]() {
       pose = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(t)));
+    };
+    try {
+      lookup();
       return Status::Ok;
     } catch (const tf2::TransformException&) {
     }
-    // Not yet (the transforms stop short of t: wait for them) or a gap?
+    // Not yet (the transforms stop short of t: wait for them) or a gap? Once
+    // the latest transforms are past t, look again: they may have arrived
+    // between the two look-ups.
     try {
-      const auto latest = tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(0));
-      return latest.header.stamp.toSec() < t ? Status::Wait : Status::Missing;
+      if (tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(0)).header.stamp.toSec() < t)
+        return Status::Wait;
     } catch (const tf2::TransformException&) {
-      return Status::Wait;  // no transform at all yet
+      return Status::Wait;  // no transform at all yet (the assembler gives up after max_wait)
+    }
+    try {
+      lookup();
+      return Status::Ok;
+    } catch (const tf2::TransformException& e) {
+      NODELET_WARN_THROTTLE(5.0, "SweepGrouper: no pose of %s in %s at %.3f: %s", parent_link_.c_str(),
+                            frame_id_.c_str(), t, e.what());
+      return Status::Missing;
     }
   };
   assembler_ = std::make_unique<core::SweepAssembler>(sweep_params_, chain, base_pose);
