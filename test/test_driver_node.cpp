@@ -52,7 +52,9 @@ struct Recorder {
   }
   void joint(const sensor_msgs::JointStateConstPtr& j) {
     std::lock_guard<std::mutex> l(m);
-    if (!j->position.empty()) joints.emplace_back(j->header.stamp.toSec(), j->position[0]);
+    // the tilt joint only (the neck relay publishes NECK_Y and NECK_P on the same topic)
+    for (std::size_t i = 0; i < j->name.size() && i < j->position.size(); ++i)
+      if (j->name[i] == "head_tilt_joint") joints.emplace_back(j->header.stamp.toSec(), j->position[i]);
   }
 };
 

@@ -267,6 +267,42 @@ TEST(SweepAssembler, WaitsForLateTransformsAndDropsLinesInATfGap) {
   EXPECT_GE(c.lines_no_pose, 100u);
 }
 
+TEST(SweepAssembler, StartsAgainWhenTheClockGoesBack) {
+  // A 3 s recording played twice in a row (rosbag play --loop): the second
+  // pass is assembled like the first, not dropped as out of order.
+  SweepParams p;
+  p.min_lines = 3;
+  TiltChain chain;
+  SweepAssembler a(p, chain);
+  const auto q_at = [](double t) { const double ph = std::fmod(t, 1.2); return ph < 0.6 ? 0.2 + ph : 1.4 - ph; };
+  std::vector<SweepResult> sweeps;
+  double wall = 0.0;
+  for (int pass = 0; pass < 2; ++pass) {
+    double next_scan = 0.0;
+    for (double t = 0.0; t < 3.0; t += 0.005, wall += 0.005) {
+      a.addJoint(t, q_at(t));
+      if (t >= next_scan + 0.025) {
+        LineInput in;
+        in.ranges.assign(11, 2.0f);
+        in.angle_increment = 0.02;
+        in.range_max = 30;
+        in.stamp = next_scan;
+        in.time_increment = 0.001;
+        in.segments = {{0, 10}};
+        a.addLine(in, wall);
+        next_scan += 0.025;
+      }
+      SweepResult r;
+      while (a.poll(wall, r)) sweeps.push_back(std::move(r));
+    }
+  }
+  EXPECT_EQ(a.counters().time_jumps, 1u);
+  EXPECT_EQ(a.counters().lines_out_of_order, 0u);
+  ASSERT_EQ(sweeps.size(), 6u);  // 0.6-1.2, 1.2-1.8, 1.8-2.4, twice
+  EXPECT_NEAR(sweeps[3].start, 0.6, 0.006);
+  EXPECT_EQ(sweeps[3].lines.size(), sweeps[0].lines.size());
+}
+
 TEST(HeightMap, FillsPolygonsAndMarksObstacles) {
   SweepResult s;
   Plane floor;

@@ -136,3 +136,21 @@ TEST(Scip, ParsesInfoLines) {
   EXPECT_EQ(info[1].second, "1080");
   EXPECT_EQ(bad, 1);
 }
+
+TEST(Scip, RejectsInfoLinesWithoutAKey) {
+  // found by fuzz_scip (test/fuzz/regressions/fuzz_scip): an empty key, and a
+  // line whose only colon is its sum character, both with good sums
+  Response r;
+  const auto line = [](const std::string& kv) { return kv + ";" + checksum(kv); };
+  std::string colon_sum;
+  for (char c = '0'; c <= 'z'; ++c)
+    if (checksum(std::string("FIRM") + c) == ':') colon_sum = std::string("FIRM") + c;
+  ASSERT_EQ(checksum(colon_sum), ':');
+  r.lines = {line(":1.1.1"), line(colon_sum), line("X:;")};
+  int bad = 0;
+  const auto info = parseInfo(r, &bad);
+  ASSERT_EQ(info.size(), 1u);
+  EXPECT_EQ(info[0].first, "X");
+  EXPECT_EQ(info[0].second, ";");
+  EXPECT_EQ(bad, 2);
+}

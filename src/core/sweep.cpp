@@ -1,5 +1,6 @@
 #include "tilt_laser_perception/core/sweep.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -60,7 +61,21 @@ void SweepAssembler::setParams(const SweepParams& p) {
   grouper_.setParams(p.grouping);
 }
 
+void SweepAssembler::restart() {
+  joints_ = JointBuffer(p_.max_joint_gap);
+  queue_.clear();
+  reversals_.clear();
+  direction_ = 0;
+  have_extreme_ = false;
+  last_mid_ = last_joint_t_ = last_line_stamp_ = last_line_added_ = -1e300;
+  in_sweep_ = false;
+  current_ = SweepResult();
+  ++counters_.time_jumps;
+  warning_ = "time jumped back (a recording looped or restarted): the sweep in progress is dropped, starting again";
+}
+
 void SweepAssembler::addJoint(double t, double q) {
+  if (t < last_joint_t_ - p_.time_jump_back) restart();
   if (!joints_.add(t, q)) {
     ++counters_.joints_out_of_order;
     warning_ = "joint state out of order: dropped";
@@ -94,7 +109,11 @@ void SweepAssembler::addJoint(double t, double q) {
   }
 }
 
-void SweepAssembler::addLine(LineInput line, double arrival) { queue_.emplace_back(std::move(line), arrival); }
+void SweepAssembler::addLine(LineInput line, double arrival) {
+  if (line.stamp < last_line_added_ - p_.time_jump_back) restart();
+  last_line_added_ = std::max(last_line_added_, line.stamp);
+  queue_.emplace_back(std::move(line), arrival);
+}
 
 void SweepAssembler::beginSweep(double start) {
   in_sweep_ = true;

@@ -179,16 +179,13 @@ void SweepGrouperNodelet::onScan(const sensor_msgs::LaserScanConstPtr& scan, con
 
 void SweepGrouperNodelet::pollSweeps() {
   if (!assembler_) return;
-  const unsigned long dropped_before = assembler_->counters().lines_no_joint + assembler_->counters().lines_no_pose +
-                                       assembler_->counters().lines_out_of_order + assembler_->counters().sweeps_dropped +
-                                       assembler_->counters().lines_bad + assembler_->counters().joints_out_of_order;
   core::SweepResult sweep;
   while (assembler_->poll(ros::Time::now().toSec(), sweep)) publish(sweep);
-  const auto& c = assembler_->counters();
-  if (c.lines_no_joint + c.lines_no_pose + c.lines_out_of_order + c.sweeps_dropped + c.lines_bad +
-          c.joints_out_of_order !=
-      dropped_before)
+  // anything dropped (or a restart) since the last look: a throttled warning
+  if (assembler_->counters().problems() != problems_seen_) {
+    problems_seen_ = assembler_->counters().problems();
     warn(assembler_->lastWarning());
+  }
 }
 
 void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
@@ -256,6 +253,7 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("lines dropped: out of order", c.lines_out_of_order);
   stat.add("lines dropped: malformed", c.lines_bad);
   stat.add("joint states out of order", c.joints_out_of_order);
+  stat.add("time jumps back (restarts)", c.time_jumps);
   stat.add("lines waiting", assembler_->pending());
   stat.add("planes (last sweep)", last_planes_);
   stat.add("grouping as lines came [ms] (last sweep)", last_group_ms_);

@@ -189,8 +189,9 @@ std::vector<std::pair<std::string, std::string>> parseInfo(const Response& r, in
     // "KEY:value;" + sum, the sum taken over "KEY:value".
     const std::size_t semi = l.rfind(';');
     const std::size_t colon = l.find(':');
-    if (semi == std::string::npos || colon == std::string::npos || semi + 2 != l.size() ||
-        checksum(l.data(), l.data() + semi) != l.back()) {
+    // (a key of at least one character before the value: found by fuzz_scip)
+    if (semi == std::string::npos || colon == std::string::npos || colon == 0 || colon > semi ||
+        semi + 2 != l.size() || checksum(l.data(), l.data() + semi) != l.back()) {
       ++bad;
       continue;
     }

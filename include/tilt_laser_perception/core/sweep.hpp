@@ -55,6 +55,7 @@ struct SweepParams {
   double max_wait = 0.3;               ///< a scan line waits this long for joint states [s]
   double max_dropped_fraction = 0.1;   ///< a sweep with more dropped lines is dropped [1]
   int min_lines = 10;                  ///< shorter sweeps are dropped
+  double time_jump_back = 1.0;          ///< stamps this far before the latest: the clock restarted (a looping bag), start again [s]
   bool per_beam = true;                ///< joint angle at every beam's time; false: one per line, at its stamp (as tools that look up one tf per scan do)
   GroupingParams grouping;
 };
@@ -85,7 +86,12 @@ struct SweepResult {
 /// Counters for diagnostics.
 struct SweepCounters {
   unsigned long lines = 0, lines_no_joint = 0, lines_out_of_order = 0, lines_no_pose = 0, lines_bad = 0,
-                joints_out_of_order = 0, sweeps = 0, sweeps_dropped = 0, reversals = 0;
+                joints_out_of_order = 0, sweeps = 0, sweeps_dropped = 0, reversals = 0, time_jumps = 0;
+  /// Everything dropped or restarted so far (a change asks for a warning).
+  unsigned long problems() const {
+    return lines_no_joint + lines_no_pose + lines_out_of_order + lines_bad + joints_out_of_order + sweeps_dropped +
+           time_jumps;
+  }
 };
 
 /// One scan line with its split, as the assembler takes it (copied).
@@ -124,6 +130,9 @@ class SweepAssembler {
 
  private:
   bool process(const LineInput& in, const Eigen::Isometry3d& base);
+  /// The clock went back (a recording looped, a simulation restarted): forget
+  /// the joints, queued lines and the sweep in progress.
+  void restart();
   bool finishSweep(double end, SweepResult& out);
   void beginSweep(double start);
 
@@ -140,7 +149,7 @@ class SweepAssembler {
   ScanLineGrouper grouper_;
   bool in_sweep_ = false;
   SweepResult current_;
-  double last_line_stamp_ = -1e300;
+  double last_line_stamp_ = -1e300, last_line_added_ = -1e300;
   std::uint32_t next_id_ = 0;
   SweepCounters counters_;
   std::string warning_;

@@ -44,6 +44,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
 
   std::mutex mutex_;
   std::unique_ptr<core::SweepAssembler> assembler_;
+  unsigned long problems_seen_ = 0;
   core::SweepParams sweep_params_;
   core::HeightMapParams map_params_;
   core::HeightMapGrid grid_;  // reused: no page faults per sweep
