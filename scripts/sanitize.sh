@@ -11,7 +11,7 @@ what="${1:-all}"
 common="-fno-omit-frame-pointer -g -O1"
 if [ "$what" = all ] || [ "$what" = asan ]; then
   echo "== AddressSanitizer + UndefinedBehaviorSanitizer: every ROS-free gtest"
-  cmake -S "$here/ros_free" -B "$here/build_asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+  cmake -S "$here/ros_free" -B "$here/build_asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DTLP_SANITIZED=ON \
     -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined $common" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null
   cmake --build "$here/build_asan" -- -j2
@@ -20,7 +20,7 @@ if [ "$what" = all ] || [ "$what" = asan ]; then
 fi
 if [ "$what" = all ] || [ "$what" = tsan ]; then
   echo "== ThreadSanitizer: the driver threads against the emulators"
-  cmake -S "$here/ros_free" -B "$here/build_tsan" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+  cmake -S "$here/ros_free" -B "$here/build_tsan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DTLP_SANITIZED=ON \
     -DCMAKE_CXX_FLAGS="-fsanitize=thread $common" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" >/dev/null
   cmake --build "$here/build_tsan" --target test_drivers -- -j2
   TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" "$here/build_tsan/test_drivers"

@@ -55,6 +55,9 @@ StampStats measure(double drift_ppm, double seconds, double warmup) {
 }  // namespace
 
 TEST(UtmClient, StampsFollowTheTrueTimeOfTheFirstBeamWhileTheClockDrifts) {
+#ifdef TLP_SANITIZED
+  GTEST_SKIP() << "stamp precision is not measured under a sanitizer: it slows the client several times";
+#endif
   for (double drift : {1000.0, -1000.0}) {
     const StampStats s = measure(drift, 7.0, 3.0);
     EXPECT_GT(s.n, 140);

@@ -168,6 +168,43 @@ TEST_P(ServoDriverTest, RecoversFromEveryServoFault) {
   EXPECT_GE(aborted, 1);  // the faults dropped sweeps in progress
 }
 
+TEST_P(ServoDriverTest, SwitchesTheTorqueOnAgainWhenItWentOffWithNoError) {
+  // An overload that clears itself before the driver's recovery (as a servo
+  // whose power was cycled): no error left, but the torque is off and the head
+  // stands still. Found by the soak (scripts/soak.py): the sweeps stopped.
+  const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
+  sim::ServoModel servo(0.3, sim::hostNow());
+  sim::Mx64Options mo;
+  mo.protocol = proto;
+  sim::Mx64Emulator emu(servo, mo);
+  emu.start();
+  Recorder rec;
+  auto o = options(proto, emu.devicePath());
+  o.recover_after = 5.0;  // the driver's own recovery stays out of it
+  driver::ServoDriver drv(o, rec.joint(), rec.sweep(), rec.log());
+  drv.start();
+  std::this_thread::sleep_for(500ms);
+  emu.setHardwareError(0x20);
+  std::this_thread::sleep_for(100ms);
+  emu.setHardwareError(0);
+  std::this_thread::sleep_for(1500ms);  // the health check runs once a second
+  EXPECT_EQ(drv.status().torque_restores, 1u);
+  // moving again: over 0.4 s the tilt changes by more than 0.2 rad (1 rad/s)
+  const auto position = [&] {
+    std::lock_guard<std::mutex> l(rec.m);
+    return rec.joints.back().position;
+  };
+  std::this_thread::sleep_for(200ms);
+  double lo = 10, hi = -10;
+  for (int i = 0; i < 40; ++i) {
+    lo = std::min(lo, position());
+    hi = std::max(hi, position());
+    std::this_thread::sleep_for(10ms);
+  }
+  EXPECT_GT(hi - lo, 0.2);
+  drv.stop();
+}
+
 INSTANTIATE_TEST_SUITE_P(Protocols, ServoDriverTest, ::testing::Values(1, 2));
 
 TEST(LaserDriver, ReconnectsAfterDropsAndReboots) {

@@ -276,6 +276,15 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
     if (last_line_stamp_ > -1e299) line_period_ = in.stamp - last_line_stamp_;
     last_line_stamp_ = in.stamp;
     last_mid_ = mid;
+    if (in_sweep_ && static_cast<int>(current_.lines.size()) >= p_.max_lines) {
+      // No reversal for this long: the head stands still (servo off?). Drop
+      // the sweep and wait for the next reversal rather than grow without bound.
+      ++counters_.sweeps_dropped;
+      warning_ = "sweep dropped: " + std::to_string(current_.lines.size()) +
+                 " lines without a tilt reversal (is the head moving?)";
+      in_sweep_ = false;
+      current_ = SweepResult();
+    }
     if (pose != PoseStatus::Ok) {
       ++counters_.lines_no_pose;
       warning_ = "no pose of the head at the scan's time (tf gap): line dropped";

@@ -41,9 +41,7 @@ void ServoDriver::stop() {
 
 ServoStatus ServoDriver::status() const {
   std::lock_guard<std::mutex> l(status_mutex_);
-  ServoStatus s = status_;
-  s.bus = bus_.counters();
-  return s;
+  return status_;  // status_.bus is copied from the bus by the servo thread (readState): no race
 }
 
 void ServoDriver::sleepUntil(double t) {
@@ -132,11 +130,12 @@ dynamixel::TxResult ServoDriver::readState(JointSample& s, std::uint8_t& error_b
   const double t0 = scip::wallNow();
   const TxResult r = bus_.read(opt_.id, addr, len, d, &error_byte, opt_.timeout);
   const double t1 = scip::wallNow();
-  if (r != TxResult::Ok) {
+  {
     std::lock_guard<std::mutex> l(status_mutex_);
-    status_.last_error = std::string("reading the joint state: ") + dynamixel::txResultName(r);
-    return r;
+    status_.bus = bus_.counters();  // found by ThreadSanitizer: status() read them while this thread wrote
+    if (r != TxResult::Ok) status_.last_error = std::string("reading the joint state: ") + dynamixel::txResultName(r);
   }
+  if (r != TxResult::Ok) return r;
   s.stamp = 0.5 * (t0 + t1);
   if (v1) {
     const double pos = dynamixel::positionToRad(static_cast<std::int32_t>(dynamixel::getLE(d.data(), 2)));
@@ -284,6 +283,20 @@ void ServoDriver::run() {
         std::lock_guard<std::mutex> l(status_mutex_);
         status_.temperature = temp;
         status_.voltage = volt * 0.1;
+      }
+      // The torque went off with no hardware error to show for it (the
+      // servo's power was cycled, an error cleared itself): the head would
+      // stand still while the sweep waits for it. Switch it on again.
+      std::uint32_t torque = 1;
+      if (!status().hardware_error && bus_.readReg(opt_.id, tab.torque_enable, torque, &e, opt_.timeout) == TxResult::Ok &&
+          torque == 0) {
+        dropSweep("the servo's torque was off");
+        bus_.writeReg(opt_.id, tab.torque_enable, 1, &e, true, opt_.timeout);
+        {
+          std::lock_guard<std::mutex> l(status_mutex_);
+          ++status_.torque_restores;
+        }
+        if (log_) log_(Level::Warn, "the servo's torque was off with no hardware error: switched on again");
       }
     }
     next += period;

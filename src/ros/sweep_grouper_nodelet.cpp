@@ -44,6 +44,7 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("max_joint_gap", sweep_params_.max_joint_gap, sweep_params_.max_joint_gap);
   pnh.param("max_wait", sweep_params_.max_wait, sweep_params_.max_wait);
   pnh.param("min_sweep_lines", sweep_params_.min_lines, sweep_params_.min_lines);
+  pnh.param("max_sweep_lines", sweep_params_.max_lines, sweep_params_.max_lines);
   pnh.param("per_beam_tilt", sweep_params_.per_beam, true);
   pnh.param("map_resolution", map_params_.resolution, map_params_.resolution);
   double size_x = map_params_.width * map_params_.resolution, size_y = map_params_.height * map_params_.resolution;

@@ -235,6 +235,7 @@ void TiltLaserDriverNodelet::diagnoseServo(diagnostic_updater::DiagnosticStatusW
   stat.add("bad packets", s.bus.bad_packets);
   stat.add("garbage bytes", s.bus.garbage_bytes);
   stat.add("port reopens", s.reopens);
+  stat.add("torque restores", s.torque_restores);
   stat.add("joint states", s.samples);
   stat.add("sweeps", s.sweeps);
   stat.add("sweeps dropped", s.aborted_sweeps);

@@ -55,6 +55,7 @@ struct SweepParams {
   double max_wait = 0.3;               ///< a scan line waits this long for joint states [s]
   double max_dropped_fraction = 0.1;   ///< a sweep with more dropped lines is dropped [1]
   int min_lines = 10;                  ///< shorter sweeps are dropped
+  int max_lines = 1000;                ///< longer ones too (no tilt reversal: the head stands still), so memory stays bounded
   double time_jump_back = 1.0;          ///< stamps this far before the latest: the clock restarted (a looping bag), start again [s]
   bool per_beam = true;                ///< joint angle at every beam's time; false: one per line, at its stamp (as tools that look up one tf per scan do)
   GroupingParams grouping;
@@ -125,6 +126,8 @@ class SweepAssembler {
   const SweepCounters& counters() const { return counters_; }
   /// Lines waiting for joint states.
   std::size_t pending() const { return queue_.size(); }
+  /// Lines in the sweep being assembled.
+  std::size_t linesInSweep() const { return in_sweep_ ? current_.lines.size() : 0; }
   /// The last warning (why a line or sweep was dropped), for throttled logs.
   const std::string& lastWarning() const { return warning_; }
 

@@ -55,6 +55,7 @@ struct ServoStatus {
   std::string hardware_error_names;
   dynamixel::BusCounters bus;
   unsigned long reopens = 0, hardware_error_events = 0, samples = 0, sweeps = 0, aborted_sweeps = 0;
+  unsigned long torque_restores = 0;  ///< torque found off with no hardware error and switched on again
   std::string last_error;
 };
 
