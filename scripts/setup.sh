@@ -29,6 +29,8 @@ PKGS=(
   liburdf-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
   # libraries
   libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev
+  # hardening: sanitizer builds (gcc) and libFuzzer targets (clang)
+  clang libclang-rt-14-dev ninja-build
   # python tests and scripts
   python3-pytest python3-numpy python3-pil python3-rospy
   # rviz (the launch files start it on request; the main job takes a screenshot under Xvfb)

@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
-# Sets up (Debian packages), builds, and runs every test through colcon/ctest:
-# gtests of the ROS-free core and simulator, and the rostests of the nodelets.
-# Exits non-zero when any test fails.
+# Sets up (Debian packages), builds, and runs every test: through colcon/ctest
+# the gtests of the ROS-free core and simulator, the rostests of the nodelets
+# and the python tests (record/replay, screenshot check); then the ROS-free
+# gtests under AddressSanitizer + UndefinedBehaviorSanitizer and the driver
+# tests under ThreadSanitizer (scripts/sanitize.sh), and each libFuzzer target
+# for TLP_FUZZ_SECONDS (default 30) after its kept crash inputs (scripts/fuzz.sh).
+# Runs them all; exits non-zero when any fails.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$here/scripts/setup.sh"
@@ -12,5 +16,11 @@ cd "$ws"
 rm -rf build/tilt_laser_perception/test_results
 # rostest needs a writable ROS_HOME for its logs
 export ROS_HOME="${ROS_HOME:-$ws/ros_home}"
-colcon test --packages-select tilt_laser_perception --event-handlers console_direct+ --return-code-on-test-failure
-colcon test-result --verbose --test-result-base build/tilt_laser_perception
+status=0
+colcon test --packages-select tilt_laser_perception --event-handlers console_direct+ --return-code-on-test-failure ||
+  status=1
+colcon test-result --verbose --test-result-base build/tilt_laser_perception || status=1
+bash "$here/scripts/sanitize.sh" all || { echo "sanitizer tests FAILED"; status=1; }
+bash "$here/scripts/fuzz.sh" "${TLP_FUZZ_SECONDS:-30}" || { echo "fuzzing FAILED"; status=1; }
+[ "$status" -eq 0 ] && echo "all tests passed" || echo "SOME TESTS FAILED"
+exit "$status"
