@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/core/sequence.hpp"
 #include "tilt_laser_perception/core/sweep.hpp"
 
 using namespace tilt_laser_perception::core;
@@ -265,6 +266,18 @@ TEST(SweepAssembler, WaitsForLateTransformsAndDropsLinesInATfGap) {
   sweeps = runTriangle(0.2, &c, never);
   EXPECT_TRUE(sweeps.empty());
   EXPECT_GE(c.lines_no_pose, 100u);
+}
+
+TEST(SequenceGaps, CountsMissedMessagesAndRestarts) {
+  SequenceGaps g;
+  EXPECT_EQ(g.add(10), 0u);  // the first: nothing known before it
+  EXPECT_EQ(g.add(11), 0u);
+  EXPECT_EQ(g.add(14), 2u);  // 12 and 13 lost
+  EXPECT_EQ(g.add(14), 0u);  // a repeat: a restart, no loss
+  EXPECT_EQ(g.add(0), 0u);   // a looping bag starts again
+  EXPECT_EQ(g.add(3), 2u);
+  EXPECT_EQ(g.missed(), 4u);
+  EXPECT_EQ(g.restarts(), 2u);
 }
 
 TEST(SweepAssembler, StartsAgainWhenTheClockGoesBack) {

@@ -84,6 +84,9 @@ void ScanSplitterNodelet::reconfigure(ScanSplitterConfig& config, uint32_t) {
 void ScanSplitterNodelet::scanCallback(const sensor_msgs::LaserScanConstPtr& scan) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++received_;
+  if (const unsigned long missed = gaps_.add(scan->header.seq))
+    NODELET_WARN_THROTTLE(5.0, "%lu scans missed before seq %u (a full queue upstream, a slow link); %lu so far", missed,
+                          scan->header.seq, gaps_.missed());
   const auto t0 = std::chrono::steady_clock::now();
   const core::ScanError err = splitter_.split(toScanView(*scan), result_);
   const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -122,6 +125,7 @@ void ScanSplitterNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("scans received", received_);
   stat.add("scans published", published_);
   stat.add("scans dropped", dropped_);
+  stat.add("scans missed upstream (sequence gaps)", gaps_.missed());
   for (int e = 1; e < core::kScanErrorCount; ++e)
     stat.add(std::string("dropped: ") + core::scanErrorName(static_cast<core::ScanError>(e)), dropped_by_reason_[e]);
   stat.add("split time mean [us]", split_count_ ? 1e6 * split_time_sum_ / split_count_ : 0.0);

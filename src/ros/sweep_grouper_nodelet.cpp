@@ -159,6 +159,9 @@ void SweepGrouperNodelet::onJoint(const sensor_msgs::JointStateConstPtr& js) {
 void SweepGrouperNodelet::onScan(const sensor_msgs::LaserScanConstPtr& scan, const ScanSegmentsConstPtr& segs) {
   std::lock_guard<std::mutex> l(mutex_);
   if (!assembler_) return;
+  if (const unsigned long missed = gaps_.add(scan->header.seq))
+    warn(std::to_string(missed) + " scan lines missed before seq " + std::to_string(scan->header.seq) +
+         " (a full queue upstream, a slow splitter)");
   if (!scan->header.frame_id.empty() && scan->header.frame_id != laser_frame_)
     warn("scan frame '" + scan->header.frame_id + "' is not ~laser_frame '" + laser_frame_ + "': using the URDF chain to '" +
          laser_frame_ + "'");
@@ -255,6 +258,7 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("lines dropped: malformed", c.lines_bad);
   stat.add("joint states out of order", c.joints_out_of_order);
   stat.add("time jumps back (restarts)", c.time_jumps);
+  stat.add("scan lines missed upstream (sequence gaps)", gaps_.missed());
   stat.add("lines waiting", assembler_->pending());
   stat.add("planes (last sweep)", last_planes_);
   stat.add("grouping as lines came [ms] (last sweep)", last_group_ms_);

@@ -22,6 +22,7 @@
 
 #include "tilt_laser_perception/ScanSplitterConfig.h"
 #include "tilt_laser_perception/core/scan_split.hpp"
+#include "tilt_laser_perception/core/sequence.hpp"
 
 namespace tilt_laser_perception {
 
@@ -49,6 +50,7 @@ class ScanSplitterNodelet : public nodelet::Nodelet {
 
   // counters for diagnostics
   unsigned long received_ = 0, published_ = 0, dropped_ = 0, dropped_reported_ = 0;
+  core::SequenceGaps gaps_;  // scans lost before they reached us
   std::array<unsigned long, core::kScanErrorCount> dropped_by_reason_{};
   double split_time_sum_ = 0.0, split_time_max_ = 0.0;  // [s] since the last report
   unsigned long split_count_ = 0;

@@ -24,6 +24,7 @@
 
 #include "tilt_laser_perception/ScanSegments.h"
 #include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/core/sequence.hpp"
 #include "tilt_laser_perception/core/sweep.hpp"
 
 namespace tilt_laser_perception {
@@ -45,6 +46,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   std::mutex mutex_;
   std::unique_ptr<core::SweepAssembler> assembler_;
   unsigned long problems_seen_ = 0;
+  core::SequenceGaps gaps_;  // scan lines lost before they reached us (queues, sync)
   core::SweepParams sweep_params_;
   core::HeightMapParams map_params_;
   core::HeightMapGrid grid_;  // reused: no page faults per sweep
