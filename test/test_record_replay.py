@@ -15,11 +15,13 @@ import time
 import rosbag
 
 LIVE_SECONDS = 16.0  # about 16 sweeps at 1 rad/s over 10..60 deg
+LAUNCH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "launch")
 
 
-def roslaunch(port, *args, log):
+def roslaunch(port, launch_file, *args, log):
+    # the file by its path: under ctest the package is found both in the source and the install space
     env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
-    return subprocess.Popen(["roslaunch", "-p", str(port), "tilt_laser_perception", *args], env=env,
+    return subprocess.Popen(["roslaunch", "-p", str(port), os.path.join(LAUNCH, launch_file), *args], env=env,
                             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
 
 

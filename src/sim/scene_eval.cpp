@@ -38,16 +38,24 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
                 const SceneEvalOptions& o, double latency) {
   SweepEval e;
   e.lines = static_cast<int>(sw.lines.size());
-  e.planes = static_cast<int>(sw.planes.size());
   // Points judged: valid returns within the radius; their true face and detected plane.
   std::map<int, int> face_count, plane_count;
   std::map<std::pair<int, int>, int> overlap;  // (plane, face)
   std::vector<std::vector<int>> plane_of(sw.lines.size());
   for (std::size_t li = 0; li < sw.lines.size(); ++li) plane_of[li].assign(sw.lines[li].points.size(), -1);
-  for (std::size_t si = 0; si < sw.segments.size(); ++si) {
-    const core::Segment3& s = sw.segments[si];
-    for (int i = s.first; i <= s.last; ++i) plane_of[s.line][i] = sw.segment_plane[si];
+  std::vector<core::Plane> external_planes;
+  if (o.segmenter) {
+    const double t0 = cpuNow();
+    o.segmenter(sw, plane_of, external_planes);
+    e.external_ms = (cpuNow() - t0) * 1e3;
+  } else {
+    for (std::size_t si = 0; si < sw.segments.size(); ++si) {
+      const core::Segment3& s = sw.segments[si];
+      for (int i = s.first; i <= s.last; ++i) plane_of[s.line][i] = sw.segment_plane[si];
+    }
   }
+  const std::vector<core::Plane>& planes = o.segmenter ? external_planes : sw.planes;
+  e.planes = static_cast<int>(planes.size());
   int edges_found = 0, edges_spurious = 0, edges_true = 0, edges_hit = 0;
   for (std::size_t li = 0; li < sw.lines.size(); ++li) {
     const auto it = truth.find(sw.lines[li].stamp);
@@ -85,7 +93,7 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
       faces_done.insert(f);
       planes_done.insert(d);
       const Face& face = scene.faces[f];
-      const core::Plane& pl = sw.planes[d];
+      const core::Plane& pl = planes[d];
       nerr += std::acos(std::min(1.0, std::abs(pl.fit.normal.dot(face.normal)))) * 180.0 / M_PI;
       oerr += std::abs(face.normal.dot(pl.fit.centroid - face.origin));
     }

@@ -8,6 +8,7 @@
  */
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,12 @@ struct SceneEvalOptions {
   core::HeightMapParams heightmap;
   std::string head_file;                ///< empty: config/head.yaml
   std::string dump_prefix;              ///< non-empty: the last sweep's planes and height map go to PREFIX_*
+  /// Another segmentation to judge in place of the grouping's planes (for
+  /// comparisons, e.g. PCL's): given the assembled sweep, one label per point
+  /// (labels[line][beam], an index into planes or -1) and the planes (normal
+  /// and centroid used). Its time goes to SweepEval::external_ms.
+  std::function<void(const core::SweepResult&, std::vector<std::vector<int>>& labels, std::vector<core::Plane>& planes)>
+      segmenter;
 };
 
 /// Writes a sweep's planes (PREFIX_planes.csv: one row per plane, then its
@@ -49,6 +56,7 @@ struct SweepEval {
   double edge_precision = 0.0, edge_recall = 0.0;
   double heightmap_rmse_m = 0.0, heightmap_coverage = 0.0;
   double split_ms = 0.0, group_ms = 0.0, latency_ms = 0.0;
+  double external_ms = 0.0;               ///< SceneEvalOptions::segmenter's time
   std::vector<std::string> missed_faces;  ///< "object/label" of the faces missed
 };
 
