@@ -26,7 +26,7 @@ FAULTS = {
     "silent": ("silent@{t}:2", "laser", "watchdog timeouts", 1),
     "corrupt": ("corrupt@{t}:3", "laser", "checksum errors", 3),
     "truncate": ("truncate@{t}:2", "laser", "truncated scans", 2),
-    "reboot": ("reboot@{t}", "laser", "clock jumps (reboots)", 1),
+    "reboot": ("reboot@{t}", "laser", "sensor restarts (clock started again)", 1),
     "servo-noreply": ("servo-noreply@{t}:0.5", "tilt servo", "timeouts", 1),
     "servo-badcrc": ("servo-badcrc@{t}:3", "tilt servo", "bad packets", 3),
     "servo-garbage": ("servo-garbage@{t}:3", "tilt servo", "garbage bytes", 1),

@@ -1,5 +1,7 @@
 #include "tilt_laser_perception/driver/laser_driver.hpp"
 
+#include <cmath>
+
 #include <chrono>
 #include <deque>
 
@@ -39,7 +41,8 @@ void LaserDriver::run() {
   double backoff = opt_.backoff_min;
   std::deque<double> arrivals;
   scip::UtmScan scan;
-  bool was_streaming = false;
+  bool was_streaming = false, check_boot = false;
+  double boot = 0.0;  // host time at which the sensor's 24-bit clock read 0 (modulo its wrap)
   while (running_) {
     std::string err;
     if (!client_->streaming()) {
@@ -63,6 +66,7 @@ void LaserDriver::run() {
         continue;
       }
       backoff = opt_.backoff_min;
+      check_boot = was_streaming;  // the first scan tells whether the sensor restarted meanwhile
       was_streaming = true;
       const scip::SensorInfo& i = client_->info();
       if (log_)
@@ -89,6 +93,22 @@ void LaserDriver::run() {
       continue;
     }
     if (r != scip::UtmClient::Result::Scan) continue;
+    // A rebooted sensor's clock starts again near 0: its zero moves by the
+    // former uptime, where a plain reconnection keeps it.
+    const double wrap = 16777.216;  // 2^24 ms
+    const double b = std::fmod(scan.stamp - scan.sensor_stamp * 1e-3, wrap);
+    if (check_boot) {
+      const double d = std::abs(std::remainder(b - boot, wrap));
+      check_boot = false;
+      if (d > 0.5) {
+        {
+          std::lock_guard<std::mutex> l(status_mutex_);
+          ++status_.sensor_restarts;
+        }
+        if (log_) log_(Level::Warn, "laser: its clock started again (the sensor rebooted or lost power)");
+      }
+    }
+    boot = b;
     if (on_scan_) on_scan_(scan);
     arrivals.push_back(scan.receive_time);
     while (!arrivals.empty() && arrivals.front() < scan.receive_time - 1.0) arrivals.pop_front();

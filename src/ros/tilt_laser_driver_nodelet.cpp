@@ -209,6 +209,7 @@ void TiltLaserDriverNodelet::diagnoseLaser(diagnostic_updater::DiagnosticStatusW
   stat.add("failed connection attempts", s.counters.connect_failures);
   stat.add("reconnects", s.reconnects);
   stat.add("clock jumps (reboots)", s.counters.clock_jumps);
+  stat.add("sensor restarts (clock started again)", s.sensor_restarts);
   stat.add("last error", s.last_error);
 }
 

@@ -37,6 +37,9 @@ struct LaserStatus {
   double clock_drift_ppm = 0.0;
   std::size_t clock_samples = 0;
   unsigned long reconnects = 0;
+  /// Reconnections after which the sensor's clock had started again (the
+  /// sensor rebooted or lost power): host-sensor offset changed by > 0.5 s.
+  unsigned long sensor_restarts = 0;
   std::string last_error, endpoint;
 };
 
