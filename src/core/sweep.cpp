@@ -201,6 +201,7 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
   const Eigen::Vector3d Jt = chain_.joint_to_laser.translation();
   const Eigen::Vector3d k = chain_.axis;
   double q_prev = std::numeric_limits<double>::quiet_NaN(), c = 1.0, s = 0.0;
+  int since_exact = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const double q = q_[i];
     line.tilt[i] = static_cast<float>(q);
@@ -212,8 +213,21 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
       continue;
     }
     if (q != q_prev) {
-      c = std::cos(q);
-      s = std::sin(q);
+      // From beam to beam the joint moves by microradians: turn (c, s) on by
+      // that step (Taylor terms to d^4: exact in double for |d| < 1e-3)
+      // rather than calling cos and sin per beam; exact again every 128 steps.
+      const double d = q - q_prev;
+      if (std::abs(d) < 1e-3 && ++since_exact < 128) {
+        const double d2 = d * d;
+        const double cd = 1.0 - 0.5 * d2 + d2 * d2 / 24.0, sd = d * (1.0 - d2 / 6.0);
+        const double c2 = c * cd - s * sd;
+        s = s * cd + c * sd;
+        c = c2;
+      } else {
+        c = std::cos(q);
+        s = std::sin(q);
+        since_exact = 0;
+      }
       q_prev = q;
     }
     const Eigen::Vector3d v = JL.col(0) * (r * cos_[i]) + JL.col(1) * (r * sin_[i]) + Jt;
