@@ -38,7 +38,8 @@ struct LaserStatus {
   std::size_t clock_samples = 0;
   unsigned long reconnects = 0;
   /// Reconnections after which the sensor's clock had started again (the
-  /// sensor rebooted or lost power): host-sensor offset changed by > 0.5 s.
+  /// sensor rebooted or lost power): the host time at which its clock read 0
+  /// moved by more than 0.5 s across the reconnection.
   unsigned long sensor_restarts = 0;
   std::string last_error, endpoint;
 };
