@@ -145,6 +145,9 @@ def main():
         if launch.poll() is None:
             os.killpg(launch.pid, signal.SIGINT)
             launch.wait(30)
+    if baseline is None:
+        print(f"soak: the run ended before the {args.warmup:.0f} s warm-up was over (see the log): FAIL")
+        return 1
     ok = True
     print(f"soak over {args.minutes:g} min of real time (the emulator runs at the sensor's own rate):")
     growth = rss[-1][1] - baseline if baseline is not None and rss else float("nan")

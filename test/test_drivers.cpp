@@ -62,17 +62,29 @@ driver::ServoDriverOptions options(dynamixel::Protocol p, const std::string& dev
 }
 }  // namespace
 
-class ServoDriverTest : public ::testing::TestWithParam<int> {};
+// The test's protocol (the parameter: 1 or 2), and an emulated MX-64 on it
+// (on a stable link path when asked), started.
+class ServoDriverTest : public ::testing::TestWithParam<int> {
+ protected:
+  dynamixel::Protocol proto() const { return GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2; }
+  struct EmulatedServo {
+    EmulatedServo(dynamixel::Protocol p, const std::string& link) : emu(servo, mx64Options(p, link)) { emu.start(); }
+    static sim::Mx64Options mx64Options(dynamixel::Protocol p, const std::string& link) {
+      sim::Mx64Options mo;
+      mo.protocol = p;
+      mo.link_path = link;
+      return mo;
+    }
+    sim::ServoModel servo{0.3, sim::hostNow()};
+    sim::Mx64Emulator emu;
+  };
+};
 
 TEST_P(ServoDriverTest, JointStatesFollowTheTrueTiltAt200Hz) {
-  const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
-  sim::ServoModel servo(0.3, sim::hostNow());
-  sim::Mx64Options mo;
-  mo.protocol = proto;
-  sim::Mx64Emulator emu(servo, mo);
-  emu.start();
+  EmulatedServo es(proto(), "");
+  sim::ServoModel& servo = es.servo;
   Recorder rec;
-  driver::ServoDriver drv(options(proto, emu.devicePath()), rec.joint(), rec.sweep(), rec.log());
+  driver::ServoDriver drv(options(proto(), es.emu.devicePath()), rec.joint(), rec.sweep(), rec.log());
   const double t0 = sim::hostNow();
   drv.start();
   std::this_thread::sleep_for(2500ms);
@@ -100,15 +112,12 @@ TEST_P(ServoDriverTest, JointStatesFollowTheTrueTiltAt200Hz) {
 }
 
 TEST_P(ServoDriverTest, RecoversFromEveryServoFault) {
-  const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
-  sim::ServoModel servo(0.3, sim::hostNow());
-  sim::Mx64Options mo;
-  mo.protocol = proto;
-  mo.link_path = ::testing::TempDir() + "/tlp_drv_" + std::to_string(GetParam()) + "_" + std::to_string(::getpid());
-  sim::Mx64Emulator emu(servo, mo);
-  emu.start();
+  const std::string link =
+      ::testing::TempDir() + "/tlp_drv_" + std::to_string(GetParam()) + "_" + std::to_string(::getpid());
+  EmulatedServo es(proto(), link);
+  sim::Mx64Emulator& emu = es.emu;
   Recorder rec;
-  driver::ServoDriver drv(options(proto, mo.link_path), rec.joint(), rec.sweep(), rec.log());
+  driver::ServoDriver drv(options(proto(), link), rec.joint(), rec.sweep(), rec.log());
   drv.start();
   const auto flowing = [&] {
     const std::size_t n = rec.count();
@@ -147,7 +156,7 @@ TEST_P(ServoDriverTest, RecoversFromEveryServoFault) {
   EXPECT_EQ(st.hardware_error_names, "overload");
   EXPECT_GE(st.hardware_error_events, 1u);
   EXPECT_TRUE(flowing());  // joint states go on while it is in error
-  if (proto == dynamixel::Protocol::V2) {
+  if (proto() == dynamixel::Protocol::V2) {
     // The driver reboots it after recover_after and carries on.
     std::this_thread::sleep_for(800ms);
     EXPECT_EQ(drv.status().hardware_error, 0u);
@@ -172,14 +181,10 @@ TEST_P(ServoDriverTest, SwitchesTheTorqueOnAgainWhenItWentOffWithNoError) {
   // An overload that clears itself before the driver's recovery (as a servo
   // whose power was cycled): no error left, but the torque is off and the head
   // stands still. Found by the soak (scripts/soak.py): the sweeps stopped.
-  const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
-  sim::ServoModel servo(0.3, sim::hostNow());
-  sim::Mx64Options mo;
-  mo.protocol = proto;
-  sim::Mx64Emulator emu(servo, mo);
-  emu.start();
+  EmulatedServo es(proto(), "");
+  sim::Mx64Emulator& emu = es.emu;
   Recorder rec;
-  auto o = options(proto, emu.devicePath());
+  auto o = options(proto(), emu.devicePath());
   o.recover_after = 5.0;  // the driver's own recovery stays out of it
   driver::ServoDriver drv(o, rec.joint(), rec.sweep(), rec.log());
   drv.start();

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/core/sequence.hpp"
@@ -171,24 +172,22 @@ TEST(JointBuffer, InterpolatesAndRefusesGaps) {
 }
 
 namespace {
-// The simulated clock of runTriangle, for base pose callbacks that depend on it.
+// The simulated clock of drive(), for base pose callbacks that depend on it.
 double g_now = 0.0;
 
-std::vector<SweepResult> runTriangle(double max_dropped_fraction, SweepCounters* counters,
-                                     SweepAssembler::BasePose base_pose = nullptr) {
-  SweepParams p;
-  p.min_lines = 3;
-  p.max_dropped_fraction = max_dropped_fraction;
-  TiltChain chain;
-  chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
-  SweepAssembler a(p, chain, std::move(base_pose));
-  // Triangle tilt: 0.2 -> 0.8 rad in 0.6 s, then back.
-  const auto q_at = [](double t) { const double ph = std::fmod(t, 1.2); return ph < 0.6 ? 0.2 + ph : 1.4 - ph; };
-  std::vector<SweepResult> sweeps;
+// Drives an assembler for `seconds` of recording time: a joint state every
+// 5 ms (q_at(t), none where skip_joint(t)), an 11-beam line of a wall 2 m
+// away every 25 ms, polling as it goes. Arrival and poll times are
+// `wall0 + t` (a bag played again keeps its stamps but not the wall clock).
+// Finished sweeps go to `sweeps` (when given); after_poll runs after each poll.
+void drive(SweepAssembler& a, const std::function<double(double)>& q_at, double seconds, double wall0,
+           std::vector<SweepResult>* sweeps, const std::function<bool(double)>& skip_joint = nullptr,
+           const std::function<void()>& after_poll = nullptr) {
   double next_scan = 0.0;
-  for (double t = 0.0; t < 3.0; t += 0.005) {
-    g_now = t;
-    if (!(t > 1.5 && t < 1.56)) a.addJoint(t, q_at(t));  // 60 ms without joint states
+  for (double t = 0.0; t < seconds; t += 0.005) {
+    const double wall = wall0 + t;
+    g_now = wall;
+    if (!skip_joint || !skip_joint(t)) a.addJoint(t, q_at(t));
     if (t >= next_scan + 0.025) {
       LineInput in;
       in.ranges.assign(11, 2.0f);
@@ -199,12 +198,32 @@ std::vector<SweepResult> runTriangle(double max_dropped_fraction, SweepCounters*
       in.stamp = next_scan;
       in.time_increment = 0.001;
       in.segments = {{0, 10}};
-      a.addLine(in, t);
+      a.addLine(in, wall);
       next_scan += 0.025;
     }
     SweepResult r;
-    while (a.poll(t, r)) sweeps.push_back(std::move(r));
+    while (a.poll(wall, r))
+      if (sweeps) sweeps->push_back(std::move(r));
+    if (after_poll) after_poll();
   }
+}
+
+// Triangle tilt: 0.2 -> 0.8 rad in 0.6 s, then back.
+double triangle(double t) {
+  const double ph = std::fmod(t, 1.2);
+  return ph < 0.6 ? 0.2 + ph : 1.4 - ph;
+}
+
+std::vector<SweepResult> runTriangle(double max_dropped_fraction, SweepCounters* counters,
+                                     SweepAssembler::BasePose base_pose = nullptr) {
+  SweepParams p;
+  p.min_lines = 3;
+  p.max_dropped_fraction = max_dropped_fraction;
+  TiltChain chain;
+  chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
+  SweepAssembler a(p, chain, std::move(base_pose));
+  std::vector<SweepResult> sweeps;
+  drive(a, triangle, 3.0, 0.0, &sweeps, [](double t) { return t > 1.5 && t < 1.56; });  // 60 ms without joint states
   *counters = a.counters();
   return sweeps;
 }
@@ -318,7 +337,10 @@ TEST(SequenceGaps, CountsMissedMessagesAndRestarts) {
   EXPECT_EQ(g.add(14), 0u);  // a repeat: a restart, no loss
   EXPECT_EQ(g.add(0), 0u);   // a looping bag starts again
   EXPECT_EQ(g.add(3), 2u);
-  EXPECT_EQ(g.missed(), 4u);
+  g.forgetLast();            // unsubscribed for a while
+  EXPECT_EQ(g.add(40), 0u);
+  EXPECT_EQ(g.add(42), 1u);
+  EXPECT_EQ(g.missed(), 5u);
   EXPECT_EQ(g.restarts(), 2u);
 }
 
@@ -329,28 +351,9 @@ TEST(SweepAssembler, StartsAgainWhenTheClockGoesBack) {
   p.min_lines = 3;
   TiltChain chain;
   SweepAssembler a(p, chain);
-  const auto q_at = [](double t) { const double ph = std::fmod(t, 1.2); return ph < 0.6 ? 0.2 + ph : 1.4 - ph; };
   std::vector<SweepResult> sweeps;
-  double wall = 0.0;
-  for (int pass = 0; pass < 2; ++pass) {
-    double next_scan = 0.0;
-    for (double t = 0.0; t < 3.0; t += 0.005, wall += 0.005) {
-      a.addJoint(t, q_at(t));
-      if (t >= next_scan + 0.025) {
-        LineInput in;
-        in.ranges.assign(11, 2.0f);
-        in.angle_increment = 0.02;
-        in.range_max = 30;
-        in.stamp = next_scan;
-        in.time_increment = 0.001;
-        in.segments = {{0, 10}};
-        a.addLine(in, wall);
-        next_scan += 0.025;
-      }
-      SweepResult r;
-      while (a.poll(wall, r)) sweeps.push_back(std::move(r));
-    }
-  }
+  drive(a, triangle, 3.0, 0.0, &sweeps);
+  drive(a, triangle, 3.0, 3.0, &sweeps);
   EXPECT_EQ(a.counters().time_jumps, 1u);
   EXPECT_EQ(a.counters().lines_out_of_order, 0u);
   ASSERT_EQ(sweeps.size(), 6u);  // 0.6-1.2, 1.2-1.8, 1.8-2.4, twice
@@ -366,26 +369,9 @@ TEST(SweepAssembler, DropsASweepThatNeverEndsInsteadOfGrowing) {
   p.max_lines = 100;
   SweepAssembler a(p, TiltChain());
   std::size_t most = 0;
-  double next_scan = 0.0;
-  for (double t = 0.0; t < 10.0; t += 0.005) {
-    // up to 0.8 rad at 0.6 s (a reversal), back down to 0.6 rad at 0.8 s, then still
-    a.addJoint(t, t < 0.6 ? 0.2 + t : (t < 0.8 ? 0.8 - (t - 0.6) : 0.6));
-    if (t >= next_scan + 0.025) {
-      LineInput in;
-      in.ranges.assign(11, 2.0f);
-      in.angle_increment = 0.02;
-      in.range_max = 30;
-      in.stamp = next_scan;
-      in.time_increment = 0.001;
-      in.segments = {{0, 10}};
-      a.addLine(in, t);
-      next_scan += 0.025;
-    }
-    SweepResult r;
-    while (a.poll(t, r)) {
-    }
-    most = std::max(most, a.linesInSweep());
-  }
+  // up to 0.8 rad at 0.6 s (a reversal), back down to 0.6 rad at 0.8 s, then still
+  drive(a, [](double t) { return t < 0.6 ? 0.2 + t : (t < 0.8 ? 0.8 - (t - 0.6) : 0.6); }, 10.0, 0.0, nullptr, nullptr,
+        [&] { most = std::max(most, a.linesInSweep()); });
   EXPECT_LE(most, 100u);
   EXPECT_GE(a.counters().sweeps_dropped, 1u);
 }

@@ -41,6 +41,7 @@ void ScanSplitterNodelet::connectCallback() {
   std::lock_guard<std::mutex> lock(mutex_);
   const bool wanted = segments_pub_.getNumSubscribers() > 0 || markers_pub_.getNumSubscribers() > 0;
   if (wanted && !scan_sub_) {
+    gaps_.forgetLast();  // the scans while nobody listened were not lost
     scan_sub_ = getNodeHandle().subscribe("scan", 10, &ScanSplitterNodelet::scanCallback, this);
     NODELET_DEBUG("output subscribed: subscribing to %s", scan_sub_.getTopic().c_str());
   } else if (!wanted && scan_sub_) {

@@ -27,6 +27,9 @@ class SequenceGaps {
     missed_ += missed;
     return missed;
   }
+  /// The next number starts afresh (the subscriber was away: what passed
+  /// meanwhile was not lost, it was not asked for).
+  void forgetLast() { have_ = false; }
   unsigned long missed() const { return missed_; }
   unsigned long restarts() const { return restarts_; }
 
