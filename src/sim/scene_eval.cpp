@@ -151,6 +151,28 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
         }
       where += " none:" + std::to_string(face_count[f] - assigned) + ")";
       e.missed_faces.push_back(where);
+      if (o.segmenter) continue;
+      for (std::size_t si = 0; si < sw.segments.size(); ++si) {
+        const core::Segment3& s = sw.segments[si];
+        const auto it = truth.find(sw.lines[s.line].stamp);
+        if (it == truth.end()) continue;
+        std::map<int, int> faces;
+        for (int i = s.first; i <= s.last; ++i) ++faces[it->second.face[i]];
+        const int pl = sw.segment_plane[si];
+        const auto on_face = overlap.find({pl, f});
+        if (faces[f] < 3 && !(on_face != overlap.end() && on_face->second >= 0.1 * face_count[f])) continue;
+        int mf = -1, mn = -1;
+        for (const auto& [face, n] : faces)
+          if (n > mn) {
+            mn = n;
+            mf = face;
+          }
+        e.missed_segments.push_back(
+            scene.faces[f].label + ": line " + std::to_string(s.line) + " beams " + std::to_string(s.first) + "-" +
+            std::to_string(s.last) + " (" + std::to_string(static_cast<int>(s.moments.n)) + " points, mostly " +
+            (mf >= 0 ? scene.faces[mf].object + "/" + scene.faces[mf].label : std::string("none")) + ") -> plane " +
+            std::to_string(pl));
+      }
     }
   // Noise: planes that are none of the above and do not mostly lie on a face too small to be expected.
   for (const auto& [d, nd] : plane_count) {

@@ -15,7 +15,7 @@ static void usage() {
                "                [--verbose] [--dump PREFIX]\n"
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
-               "  --verbose   list the faces each sweep missed\n"
+               "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them\n"
                "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n");
 }
 
@@ -41,8 +41,10 @@ int main(int argc, char** argv) {
     std::printf("%s\n", sim::evalCsvHeader().c_str());
     for (std::size_t i = 0; i < evals.size(); ++i) {
       std::printf("%s\n", sim::evalCsvRow(static_cast<int>(i), evals[i]).c_str());
-      if (verbose)
+      if (verbose) {
         for (const auto& f : evals[i].missed_faces) std::fprintf(stderr, "sweep %zu missed %s\n", i, f.c_str());
+        for (const auto& s : evals[i].missed_segments) std::fprintf(stderr, "  %s\n", s.c_str());
+      }
     }
     std::printf("%s\n", sim::evalSummary(evals).c_str());
   } catch (const std::exception& e) {

@@ -58,6 +58,9 @@ struct SweepEval {
   double split_ms = 0.0, group_ms = 0.0, latency_ms = 0.0;
   double external_ms = 0.0;               ///< SceneEvalOptions::segmenter's time
   std::vector<std::string> missed_faces;  ///< "object/label" of the faces missed
+  /// For each missed face, the segments on it or in a plane that took its
+  /// points: "line L beams A-B (N points, mostly FACE) -> plane P".
+  std::vector<std::string> missed_segments;
 };
 
 /// Simulates `sweeps` sweeps (after the first reversal) and judges each.
