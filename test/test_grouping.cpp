@@ -101,11 +101,73 @@ TEST(Grouping, AStepGivesTreadRiserAndFloor) {
     if (std::abs(p.fit.normal.z()) > 0.999 && std::abs(p.fit.centroid.z() - 0.15) < 1e-9) ++treads;
     if (std::abs(p.fit.normal.x()) > 0.999) {
       ++risers;
+      // Its two lines and the floor's last line (x = 1.4, z = 0: on the crease
+      // itself, on both planes), which goes to the plane of fewer lines.
       EXPECT_NEAR(p.fit.centroid.x(), 1.4, 1e-9);
-      EXPECT_EQ(p.segments, 2);
+      EXPECT_EQ(p.segments, 3);
+      EXPECT_NEAR(p.fit.centroid.z(), 0.05, 1e-9);
     }
   }
   EXPECT_EQ(floors, 1);
+  EXPECT_EQ(risers, 1);
+  EXPECT_EQ(treads, 1);
+}
+
+TEST(Grouping, ANoseLineNearTheRiserGoesToTheTread) {
+  // The riser x = 1.4 is crossed by two lines (z 0.05, 0.10); the next line
+  // hits the tread (z 0.15) 6 mm behind the nose: within the riser's
+  // tolerance, so it joins the riser as lines arrive, but the tread plane
+  // that follows explains it exactly and takes it at the end.
+  std::vector<std::vector<Segment3>> lines = floorLines(6, 1.0, 0.06, 0.0, -0.6, 0.6);
+  lines.push_back({seg(6, 100, {1.4, -0.6, 0.05}, {1.4, 0.6, 0.05})});
+  lines.push_back({seg(7, 100, {1.4, -0.6, 0.10}, {1.4, 0.6, 0.10})});
+  for (int k = 0; k < 5; ++k) lines.push_back({seg(8 + k, 100, {1.406 + 0.06 * k, -0.6, 0.15}, {1.406 + 0.06 * k, 0.6, 0.15})});
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 3u);
+  int risers = 0, treads = 0;
+  for (const auto& p : planes) {
+    if (std::abs(p.fit.normal.x()) > 0.999) {
+      ++risers;
+      EXPECT_EQ(p.segments, 2);
+      EXPECT_NEAR(p.fit.offset * p.fit.normal.x(), 1.4, 1e-9);
+    }
+    if (std::abs(p.fit.centroid.z() - 0.15) < 1e-9) {
+      ++treads;
+      EXPECT_EQ(p.segments, 5);
+      EXPECT_NEAR(std::abs(p.fit.normal.z()), 1.0, 1e-9);
+    }
+  }
+  EXPECT_EQ(risers, 1);
+  EXPECT_EQ(treads, 1);
+}
+
+TEST(Grouping, APairOfARiserAndATreadLineIsTakenApart) {
+  // The riser's lower line comes in three pieces, none half as long as the
+  // upper line, so the upper line first pairs with the tread's first line
+  // (two parallel lines share a plane). The tread's plane of three lines
+  // explains that line; the pair is taken apart and the riser's pieces pair.
+  std::vector<std::vector<Segment3>> lines = floorLines(6, 1.0, 0.06, 0.0, -0.6, 0.6);
+  lines.push_back({seg(6, 100, {1.4, -0.6, 0.05}, {1.4, -0.24, 0.05}, 12),
+                   seg(6, 114, {1.4, -0.18, 0.05}, {1.4, 0.18, 0.05}, 12),
+                   seg(6, 128, {1.4, 0.24, 0.05}, {1.4, 0.6, 0.05}, 12)});
+  lines.push_back({seg(7, 100, {1.4, -0.6, 0.10}, {1.4, 0.6, 0.10})});
+  for (int k = 0; k < 4; ++k) lines.push_back({seg(8 + k, 100, {1.45 + 0.06 * k, -0.6, 0.15}, {1.45 + 0.06 * k, 0.6, 0.15})});
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 3u);
+  int risers = 0, treads = 0;
+  for (const auto& p : planes) {
+    if (std::abs(p.fit.normal.x()) > 0.999) {
+      ++risers;
+      EXPECT_EQ(p.segments, 4);
+      EXPECT_EQ(p.points, 76);
+    }
+    if (std::abs(p.fit.centroid.z() - 0.15) < 1e-9) {
+      ++treads;
+      EXPECT_EQ(p.segments, 4);
+    }
+  }
   EXPECT_EQ(risers, 1);
   EXPECT_EQ(treads, 1);
 }

@@ -25,6 +25,17 @@ double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) 
   return 0.5 * std::abs(a);
 }
 
+template <class Segs>
+int countLines(const std::vector<int>& members, const Segs& segs) {
+  int n = 0, last = -1;
+  for (int m : members)  // sorted by index, so by line
+    if (segs[m].line != last) {
+      ++n;
+      last = segs[m].line;
+    }
+  return n;
+}
+
 double segmentDistance(const Segment3& a, const Segment3& b) {
   // Smallest distance between the end points and centroids: enough to tell neighbours from strangers.
   const Eigen::Vector3d pa[3] = {a.start, a.end, a.moments.mean()};
@@ -110,22 +121,9 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) co
     score = std::max(d1, d2) / thr;
     return true;
   }
-  // A seed: two parallel lines always share a plane, so they must lie side by
-  // side, each overlapping the other in beam index by half its own length.
-  bool side_by_side = false;
-  for (int mi : r.members) {
-    const Segment3& m = segs_[mi];
-    if (m.line >= s.line) continue;
-    const int ov = std::min(m.last, s.last) - std::max(m.first, s.first) + 1;
-    side_by_side = side_by_side || ov >= 0.5 * std::max(m.last - m.first + 1, s.last - s.first + 1);
-  }
-  if (!side_by_side) return false;
-  Moments3 m = r.moments;
-  m += s.moments;
-  const PlaneFit f = fitPlane(m);
-  if (f.spread(1) < 0.01 || f.rms > 0.5 * thr) return false;
-  score = f.rms / (0.5 * thr);
-  return true;
+  // A seed: a lone segment of a line before.
+  if (r.members.size() != 1 || segs_[r.members[0]].line >= s.line) return false;
+  return pairs(segs_[r.members[0]], s, score);
 }
 
 bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
@@ -146,7 +144,103 @@ void ScanLineGrouper::addMember(int region, int si) {
   to.fit = fitPlane(to.moments);
   to.first_line = std::min(to.first_line, s.line);
   to.last_line = std::max(to.last_line, s.line);
+  to.lines = countLines(to.members, segs_);
   seg_region_[si] = region;
+}
+
+int ScanLineGrouper::newRegion(int si) {
+  Region r;
+  r.moments = segs_[si].moments;
+  r.members = {si};
+  r.first_line = r.last_line = segs_[si].line;
+  r.lines = 1;
+  r.fit = fitPlane(r.moments);
+  seg_region_[si] = static_cast<int>(regions_.size());
+  regions_.push_back(std::move(r));
+  return seg_region_[si];
+}
+
+int ScanLineGrouper::bestFit(const Segment3& s, int except, int min_lines) const {
+  int best = -1;
+  double best_score = 1e300;
+  for (std::size_t rj = 0; rj < regions_.size(); ++rj) {
+    const Region& o = regions_[rj];
+    if (static_cast<int>(rj) == except || o.dead || o.lines < min_lines || o.last_line == o.first_line) continue;
+    if (s.line < o.first_line - p_.max_line_gap || s.line > o.last_line + p_.max_line_gap) continue;
+    bool overlap = false;
+    const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+    for (auto mi = m0; mi != m1 && !overlap; ++mi)
+      overlap = segs_[*mi].first <= s.last + p_.beam_slack && s.first <= segs_[*mi].last + p_.beam_slack;
+    double score = 0.0;
+    Segment3 probe = s;
+    probe.line = std::min(s.line, o.last_line + 1);  // fits() looks at the lines before the segment's
+    if (overlap && fits(o, probe, score) && score < best_score) {
+      best = static_cast<int>(rj);
+      best_score = score;
+    }
+  }
+  return best;
+}
+
+bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score) const {
+  // Two parallel lines always share a plane, so they must lie side by side:
+  // one overlaps the other in beam index by half its own length or more.
+  const int ov = std::min(a.last, b.last) - std::max(a.first, b.first) + 1;
+  const int longer = std::max(a.last - a.first + 1, b.last - b.first + 1);
+  if (ov < 0.5 * std::min(a.last - a.first + 1, b.last - b.first + 1)) return false;
+  if (segmentDistance(a, b) > p_.seed_gap + 0.05 * b.range) return false;
+  Moments3 m = a.moments;
+  m += b.moments;
+  const PlaneFit f = fitPlane(m);
+  const double thr = 0.5 * p_.threshold(b.range);
+  if (f.spread(1) < 0.01 || f.rms > thr) return false;
+  // Best: the next line, overlapping the whole of the longer segment, coplanar.
+  score = 2.0 * (std::abs(b.line - a.line) - 1) + (1.0 - static_cast<double>(ov) / longer) + f.rms / thr;
+  return true;
+}
+
+void ScanLineGrouper::settlePairs() {
+  // A pair whose segments a plane of three lines or more explains is two
+  // lines of different surfaces (a riser's and a tread's): take it apart.
+  const std::size_t n_regions = regions_.size();
+  for (std::size_t ri = 0; ri < n_regions; ++ri) {
+    if (regions_[ri].dead || regions_[ri].lines != 2) continue;
+    const std::vector<int> members = regions_[ri].members;
+    std::vector<int> to(members.size(), -1);
+    bool explained = false;
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      to[k] = bestFit(segs_[members[k]], static_cast<int>(ri), 3);
+      explained = explained || to[k] >= 0;
+    }
+    if (!explained) continue;
+    regions_[ri].dead = true;
+    regions_[ri].members.clear();
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      if (to[k] >= 0) addMember(to[k], members[k]);
+      else newRegion(members[k]);
+    }
+  }
+  // Segments left alone pair with the best lone segment of the lines before.
+  for (std::size_t si = 0; si < segs_.size(); ++si) {
+    const int ri = seg_region_[si];
+    const Segment3& s = segs_[si];
+    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() != 1 || s.moments.n < p_.min_points) continue;
+    int best = -1;
+    double best_score = 1e300;
+    for (std::size_t ti = si; ti-- > 0;) {
+      const Segment3& t = segs_[ti];
+      if (t.line >= s.line) continue;
+      if (t.line < s.line - p_.max_line_gap) break;
+      const int rt = seg_region_[ti];
+      if (rt < 0 || regions_[rt].dead || regions_[rt].members.size() != 1 || t.moments.n < p_.min_points) continue;
+      double score = 0.0;
+      if (pairs(t, s, score) && score < best_score) {
+        best = rt;
+        best_score = score;
+      }
+    }
+    if (best >= 0) absorb(best, ri);
+  }
 }
 
 void ScanLineGrouper::absorb(int into, int from) {
@@ -158,6 +252,7 @@ void ScanLineGrouper::absorb(int into, int from) {
   std::sort(a.members.begin(), a.members.end());  // segment indices grow with the line
   a.first_line = std::min(a.first_line, b.first_line);
   a.last_line = std::max(a.last_line, b.last_line);
+  a.lines = countLines(a.members, segs_);
   a.fit = fitPlane(a.moments);
   b.dead = true;
   b.parent = into;
@@ -188,21 +283,20 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
       if (overlap && fits(r, s, score)) matches.emplace_back(score, ri);
     }
     if (matches.empty()) {
-      Region r;
-      r.moments = s.moments;
-      r.members = {idx};
-      r.first_line = r.last_line = l;
-      r.fit = fitPlane(r.moments);
-      seg_region_[idx] = static_cast<int>(regions_.size());
-      open_.push_back(static_cast<int>(regions_.size()));
-      regions_.push_back(r);
+      open_.push_back(newRegion(idx));
       continue;
     }
-    std::sort(matches.begin(), matches.end());
+    // A plane of three lines or more before a pair (which any parallel line
+    // next to it fits), then the best score.
+    std::sort(matches.begin(), matches.end(), [&](const std::pair<double, int>& a, const std::pair<double, int>& b) {
+      const bool ca = confirmed(regions_[a.second]), cb = confirmed(regions_[b.second]);
+      return ca != cb ? ca : a < b;
+    });
     const int best = matches[0].second;
     Region& r = regions_[best];
     r.moments += s.moments;
     r.members.push_back(idx);
+    if (l > r.last_line) ++r.lines;
     r.last_line = l;
     r.fit = fitPlane(r.moments);
     seg_region_[idx] = best;
@@ -258,10 +352,15 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
       }
     }
   }
+  settlePairs();
   collect();
   // A segment on a crease fits the planes on both sides; the first to come
   // took it. Give each boundary segment to the neighbouring plane it lies
-  // nearer to, if that plane accepts it.
+  // nearer to, if that plane accepts it; again while segments move (a move
+  // refits both planes), at most a few times.
+  bool moved = true;
+  for (int pass = 0; pass < 3 && moved; ++pass) {
+  moved = false;
   for (std::size_t si = 0; si < segs_.size(); ++si) {
     const int ri = seg_region_[si];
     if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3) continue;
@@ -276,6 +375,10 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     rest.ss -= s.moments.ss;
     const PlaneFit own_fit = fitPlane(rest);
     const double d_own = std::abs(own_fit.normal.dot(c) - own_fit.offset);
+    // On the crease itself (as near one plane as the other, to a quarter of
+    // the tolerance) it goes to the plane of fewer lines, which it constrains
+    // more (a box's front face below its top).
+    const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
     int best = -1;
     double best_d = d_own;
     for (int rj : cand) {
@@ -283,7 +386,8 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
       if (rj == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
       if (s.line < o.first_line - 1 || s.line > o.last_line + 1) continue;
       const double d = std::abs(o.fit.normal.dot(c) - o.fit.offset);
-      if (d >= best_d || d > std::max(p_.centroid_min, p_.centroid_ratio * s.range)) continue;
+      const bool tie = best < 0 && o.lines + 1 < own.lines && d < d_own + 0.25 * tol;
+      if ((d >= best_d && !tie) || d > tol) continue;
       bool overlap = false;
       const auto [m0, m1] = membersIn(o, s.line - 1, s.line + 1);
       for (auto mi = m0; mi != m1 && !overlap; ++mi) overlap = segs_[*mi].first <= s.last && s.first <= segs_[*mi].last;
@@ -298,7 +402,10 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     own.fit = own_fit;
     own.first_line = segs_[own.members.front()].line;
     own.last_line = segs_[own.members.back()].line;
+    own.lines = countLines(own.members, segs_);
     addMember(best, static_cast<int>(si));
+    moved = true;
+  }
   }
 
   // Late joins: pieces of a line that the split cut short (or that came before
@@ -308,24 +415,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     if (ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() >= 2) continue;
     const Segment3& s = segs_[si];
     if (s.moments.n < 3) continue;
-    int best = -1;
-    double best_score = 1e300;
-    for (int rj : cand) {
-      const Region& o = regions_[rj];
-      if (rj == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
-      if (s.line < o.first_line - p_.max_line_gap || s.line > o.last_line + p_.max_line_gap) continue;
-      bool overlap = false;
-      const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
-      for (auto mi = m0; mi != m1 && !overlap; ++mi)
-        overlap = segs_[*mi].first <= s.last + p_.beam_slack && s.first <= segs_[*mi].last + p_.beam_slack;
-      double score = 0.0;
-      Segment3 probe = s;
-      probe.line = std::min(s.line, o.last_line + 1);  // fits() looks at the lines before the segment's
-      if (overlap && fits(o, probe, score) && score < best_score) {
-        best = rj;
-        best_score = score;
-      }
-    }
+    const int best = bestFit(s, ri, 2);
     if (best < 0) continue;
     if (ri >= 0 && !regions_[ri].dead) {  // a lone segment's region empties
       regions_[ri].members.clear();

@@ -84,11 +84,26 @@ class ScanLineGrouper {
     Moments3 moments;
     std::vector<int> members;
     int first_line = 0, last_line = 0;
+    int lines = 0;       // distinct scan lines among the members
     PlaneFit fit;
     bool dead = false;   // merged into another
     int parent = -1;
   };
   bool fits(const Region& r, const Segment3& s, double& score) const;
+  /// Three lines or more span a plane; two parallel lines fit any plane through both.
+  static bool confirmed(const Region& r) { return r.lines >= 3; }
+  /// The region of `min_lines` lines or more (not `except`) that s fits
+  /// best; it must overlap a member of the lines near s. -1 for none.
+  int bestFit(const Segment3& s, int except, int min_lines) const;
+  /// Whether two segments of different lines seed a plane (side by side,
+  /// near, coplanar); a score, lowest for the next line, a whole overlap
+  /// and a small rms.
+  bool pairs(const Segment3& a, const Segment3& b, double& score) const;
+  /// A region of one segment.
+  int newRegion(int segment);
+  /// Pairs that a confirmed plane explains better are taken apart; then
+  /// segments left alone pair with a neighbour of an adjacent line.
+  void settlePairs();
   /// The members of r on lines [line_lo, line_hi].
   std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> membersIn(const Region& r, int line_lo,
                                                                                          int line_hi) const;
