@@ -36,14 +36,16 @@ int countLines(const std::vector<int>& members, const Segs& segs) {
   return n;
 }
 
-double segmentDistance(const Segment3& a, const Segment3& b) {
-  // Smallest distance between the end points and centroids: enough to tell neighbours from strangers.
+/// Whether two segments come within `limit` of each other, judged by their
+/// end points and centroids: enough to tell neighbours from strangers.
+bool near(const Segment3& a, const Segment3& b, double limit) {
+  const double l2 = limit * limit;
   const Eigen::Vector3d pa[3] = {a.start, a.end, a.moments.mean()};
   const Eigen::Vector3d pb[3] = {b.start, b.end, b.moments.mean()};
-  double d = 1e300;
   for (const auto& x : pa)
-    for (const auto& y : pb) d = std::min(d, (x - y).norm());
-  return d;
+    for (const auto& y : pb)
+      if ((x - y).squaredNorm() <= l2) return true;
+  return false;
 }
 }  // namespace
 
@@ -53,13 +55,27 @@ bool makeSegment3(const std::vector<Eigen::Vector3d>& pts, const std::vector<dou
   s.line = line;
   s.first = first;
   s.last = last;
-  double sum_r = 0.0;
+  // The moments summed by hand: the symmetric half of the outer products only.
+  double n = 0, sum_r = 0, x = 0, y = 0, z = 0, xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
   for (int i = first; i <= last; ++i) {
-    if (!std::isfinite(pts[i].x())) continue;
-    s.moments.add(pts[i]);
+    const Eigen::Vector3d& p = pts[i];
+    if (!std::isfinite(p.x())) continue;
+    n += 1.0;
     sum_r += ranges[i];
+    x += p.x();
+    y += p.y();
+    z += p.z();
+    xx += p.x() * p.x();
+    xy += p.x() * p.y();
+    xz += p.x() * p.z();
+    yy += p.y() * p.y();
+    yz += p.y() * p.z();
+    zz += p.z() * p.z();
   }
-  if (s.moments.n < 2) return false;
+  if (n < 2) return false;
+  s.moments.n = n;
+  s.moments.s = Eigen::Vector3d(x, y, z);
+  s.moments.ss << xx, xy, xz, xy, yy, yz, xz, yz, zz;
   s.range = sum_r / s.moments.n;
   int a = first, b = last;
   while (a < b && !std::isfinite(pts[a].x())) ++a;
@@ -102,14 +118,12 @@ void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
 
 bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) const {
   const double thr = p_.threshold(s.range);
-  // A neighbour: its nearest member of the last lines is close.
-  double near = 1e300;
-  for (auto it = r.members.rbegin(); it != r.members.rend(); ++it) {
-    const Segment3& m = segs_[*it];
-    if (m.line < s.line - p_.max_line_gap) break;
-    near = std::min(near, segmentDistance(m, s));
-  }
-  if (near > p_.seed_gap + 0.05 * s.range) return false;
+  // A neighbour: a member of the last lines is close.
+  const double limit = p_.seed_gap + 0.05 * s.range;
+  bool neighbour = false;
+  const auto [m0, m1] = membersIn(r, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+  for (auto it = m0; it != m1 && !neighbour; ++it) neighbour = near(segs_[*it], s, limit);
+  if (!neighbour) return false;
   const bool planar = r.last_line > r.first_line && r.fit.spread(1) > 0.02;
   if (planar) {
     const double d1 = std::abs(r.fit.normal.dot(s.start) - r.fit.offset);
@@ -160,12 +174,12 @@ int ScanLineGrouper::newRegion(int si) {
   return seg_region_[si];
 }
 
-int ScanLineGrouper::bestFit(const Segment3& s, int except, int min_lines) const {
+int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines) const {
   int best = -1;
   double best_score = 1e300;
-  for (std::size_t rj = 0; rj < regions_.size(); ++rj) {
+  for (const int rj : among) {
     const Region& o = regions_[rj];
-    if (static_cast<int>(rj) == except || o.dead || o.lines < min_lines || o.last_line == o.first_line) continue;
+    if (rj == except || o.dead || o.lines < min_lines || o.last_line == o.first_line) continue;
     if (s.line < o.first_line - p_.max_line_gap || s.line > o.last_line + p_.max_line_gap) continue;
     bool overlap = false;
     const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
@@ -175,7 +189,7 @@ int ScanLineGrouper::bestFit(const Segment3& s, int except, int min_lines) const
     Segment3 probe = s;
     probe.line = std::min(s.line, o.last_line + 1);  // fits() looks at the lines before the segment's
     if (overlap && fits(o, probe, score) && score < best_score) {
-      best = static_cast<int>(rj);
+      best = rj;
       best_score = score;
     }
   }
@@ -188,7 +202,7 @@ bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score)
   const int ov = std::min(a.last, b.last) - std::max(a.first, b.first) + 1;
   const int longer = std::max(a.last - a.first + 1, b.last - b.first + 1);
   if (ov < 0.5 * std::min(a.last - a.first + 1, b.last - b.first + 1)) return false;
-  if (segmentDistance(a, b) > p_.seed_gap + 0.05 * b.range) return false;
+  if (!near(a, b, p_.seed_gap + 0.05 * b.range)) return false;
   Moments3 m = a.moments;
   m += b.moments;
   const PlaneFit f = fitPlane(m);
@@ -202,6 +216,9 @@ bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score)
 void ScanLineGrouper::settlePairs() {
   // A pair whose segments a plane of three lines or more explains is two
   // lines of different surfaces (a riser's and a tread's): take it apart.
+  std::vector<int> planes;  // of three lines or more
+  for (std::size_t ri = 0; ri < regions_.size(); ++ri)
+    if (!regions_[ri].dead && regions_[ri].lines >= 3) planes.push_back(static_cast<int>(ri));
   const std::size_t n_regions = regions_.size();
   for (std::size_t ri = 0; ri < n_regions; ++ri) {
     if (regions_[ri].dead || regions_[ri].lines != 2) continue;
@@ -209,7 +226,7 @@ void ScanLineGrouper::settlePairs() {
     std::vector<int> to(members.size(), -1);
     bool explained = false;
     for (std::size_t k = 0; k < members.size(); ++k) {
-      to[k] = bestFit(segs_[members[k]], static_cast<int>(ri), 3);
+      to[k] = bestFit(segs_[members[k]], planes, static_cast<int>(ri), 3);
       explained = explained || to[k] >= 0;
     }
     if (!explained) continue;
@@ -338,15 +355,15 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
         if (ra.first_line > rb.last_line + p_.max_line_gap + 1 || rb.first_line > ra.last_line + p_.max_line_gap + 1)
           continue;
         if (!planesAgree(ra, rb)) continue;
-        double near = 1e300;
+        const double limit = p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm();
         const int gap = p_.max_line_gap + 1;
+        bool neighbours = false;
         const auto [a0, a1] = membersIn(ra, rb.first_line - gap, rb.last_line + gap);
-        for (auto i = a0; i != a1; ++i) {
+        for (auto i = a0; i != a1 && !neighbours; ++i) {
           const auto [b0, b1] = membersIn(rb, segs_[*i].line - gap, segs_[*i].line + gap);
-          for (auto j = b0; j != b1; ++j) near = std::min(near, segmentDistance(segs_[*i], segs_[*j]));
+          for (auto j = b0; j != b1 && !neighbours; ++j) neighbours = near(segs_[*i], segs_[*j], limit);
         }
-        const double range = (ra.fit.centroid - sensor_).norm();
-        if (near > p_.seed_gap + 0.05 * range) continue;
+        if (!neighbours) continue;
         absorb(a, b);
         merged = true;
       }
@@ -415,7 +432,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     if (ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() >= 2) continue;
     const Segment3& s = segs_[si];
     if (s.moments.n < 3) continue;
-    const int best = bestFit(s, ri, 2);
+    const int best = bestFit(s, cand, ri, 2);
     if (best < 0) continue;
     if (ri >= 0 && !regions_[ri].dead) {  // a lone segment's region empties
       regions_[ri].members.clear();

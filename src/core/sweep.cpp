@@ -183,23 +183,31 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
     }
     q_.assign(n, q0);
   }
-  // Beam directions, cached while the scan geometry stays the same.
-  if (cos_.size() != n || trig_min_ != in.angle_min || trig_inc_ != in.angle_increment) {
-    cos_.resize(n);
-    sin_.resize(n);
+  // Beam directions in the joint frame, cached while the scan geometry stays the same.
+  if (dir_.size() != n || trig_min_ != in.angle_min || trig_inc_ != in.angle_increment) {
+    dir_.resize(n);
+    const Eigen::Matrix3d JL = chain_.joint_to_laser.linear();
     for (std::size_t i = 0; i < n; ++i) {
-      cos_[i] = std::cos(in.angle_min + i * in.angle_increment);
-      sin_[i] = std::sin(in.angle_min + i * in.angle_increment);
+      const double a = in.angle_min + i * in.angle_increment;
+      dir_[i] = JL.col(0) * std::cos(a) + JL.col(1) * std::sin(a);
     }
     trig_min_ = in.angle_min;
     trig_inc_ = in.angle_increment;
   }
-  // p = base * base_to_joint * R(axis, q) * joint_to_laser * (r cos a, r sin a, 0), with R by
-  // Rodrigues' formula; cos q and sin q are updated only where q changes.
-  const Eigen::Isometry3d outer = base * chain_.base_to_joint;
-  const Eigen::Matrix3d JL = chain_.joint_to_laser.linear();
-  const Eigen::Vector3d Jt = chain_.joint_to_laser.translation();
+  // p = O (R(axis, q) v) + o with v = r u + j (u the beam's direction, j the
+  // laser's origin in the joint frame), O and o the joint's pose, and R by
+  // Rodrigues' formula: O R v = c (O v) + s (O [k]x v) + (1 - c) (k . v) O k.
+  // Written out in scalars (Eigen's expression templates stay out of line at -O2).
+  const Eigen::Isometry3d joint_pose = base * chain_.base_to_joint;
   const Eigen::Vector3d k = chain_.axis;
+  Eigen::Matrix3d K;
+  K << 0, -k.z(), k.y(), k.z(), 0, -k.x(), -k.y(), k.x(), 0;
+  const Eigen::Matrix3d A = joint_pose.linear(), B = A * K;
+  const Eigen::Vector3d Ak = A * k, o = joint_pose.translation(), j = chain_.joint_to_laser.translation();
+  const double a00 = A(0, 0), a01 = A(0, 1), a02 = A(0, 2), a10 = A(1, 0), a11 = A(1, 1), a12 = A(1, 2), a20 = A(2, 0),
+               a21 = A(2, 1), a22 = A(2, 2);
+  const double b00 = B(0, 0), b01 = B(0, 1), b02 = B(0, 2), b10 = B(1, 0), b11 = B(1, 1), b12 = B(1, 2), b20 = B(2, 0),
+               b21 = B(2, 1), b22 = B(2, 2);
   double q_prev = std::numeric_limits<double>::quiet_NaN(), c = 1.0, s = 0.0;
   int since_exact = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -230,10 +238,14 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
       }
       q_prev = q;
     }
-    const Eigen::Vector3d v = JL.col(0) * (r * cos_[i]) + JL.col(1) * (r * sin_[i]) + Jt;
-    const Eigen::Vector3d rv = v * c + k.cross(v) * s + k * (k.dot(v) * (1.0 - c));
-    pts[i] = outer * rv;
-    line.points[i] = pts[i].cast<float>();
+    const Eigen::Vector3d& u = dir_[i];
+    const double vx = r * u.x() + j.x(), vy = r * u.y() + j.y(), vz = r * u.z() + j.z();
+    const double kv = (1.0 - c) * (k.x() * vx + k.y() * vy + k.z() * vz);
+    const double px = c * (a00 * vx + a01 * vy + a02 * vz) + s * (b00 * vx + b01 * vy + b02 * vz) + kv * Ak.x() + o.x();
+    const double py = c * (a10 * vx + a11 * vy + a12 * vz) + s * (b10 * vx + b11 * vy + b12 * vz) + kv * Ak.y() + o.y();
+    const double pz = c * (a20 * vx + a21 * vy + a22 * vz) + s * (b20 * vx + b21 * vy + b22 * vz) + kv * Ak.z() + o.z();
+    pts[i] = Eigen::Vector3d(px, py, pz);
+    line.points[i] = Eigen::Vector3f(static_cast<float>(px), static_cast<float>(py), static_cast<float>(pz));
   }
   const int index = static_cast<int>(current_.lines.size());
   std::vector<Segment3> segs;

@@ -22,7 +22,7 @@ namespace core {
 struct Segment3 {
   int line = 0;               ///< scan line index in the sweep
   int first = 0, last = 0;    ///< beam indices (inclusive)
-  Eigen::Vector3d start, end; ///< end points [m]
+  Eigen::Vector3d start = Eigen::Vector3d::Zero(), end = Eigen::Vector3d::Zero();  ///< end points [m]
   Moments3 moments;           ///< of its points in 3D
   double range = 0.0;         ///< mean range of its points [m]
   double length() const { return (end - start).norm(); }
@@ -92,9 +92,9 @@ class ScanLineGrouper {
   bool fits(const Region& r, const Segment3& s, double& score) const;
   /// Three lines or more span a plane; two parallel lines fit any plane through both.
   static bool confirmed(const Region& r) { return r.lines >= 3; }
-  /// The region of `min_lines` lines or more (not `except`) that s fits
-  /// best; it must overlap a member of the lines near s. -1 for none.
-  int bestFit(const Segment3& s, int except, int min_lines) const;
+  /// The region `among` those of `min_lines` lines or more (not `except`)
+  /// that s fits best; it must overlap a member of the lines near s. -1 for none.
+  int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines) const;
   /// Whether two segments of different lines seed a plane (side by side,
   /// near, coplanar); a score, lowest for the next line, a whole overlap
   /// and a small rms.
