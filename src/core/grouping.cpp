@@ -49,8 +49,9 @@ bool near(const Segment3& a, const Segment3& b, double limit) {
 }
 }  // namespace
 
-bool makeSegment3(const std::vector<Eigen::Vector3d>& pts, const std::vector<double>& ranges, int line, int first,
-                  int last, Segment3& s) {
+template <class Point, class Range>
+bool makeSegment3(const std::vector<Point>& pts, const std::vector<Range>& ranges, int line, int first, int last,
+                  Segment3& s) {
   s = Segment3();
   s.line = line;
   s.first = first;
@@ -58,8 +59,8 @@ bool makeSegment3(const std::vector<Eigen::Vector3d>& pts, const std::vector<dou
   // The moments summed by hand: the symmetric half of the outer products only.
   double n = 0, sum_r = 0, x = 0, y = 0, z = 0, xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
   for (int i = first; i <= last; ++i) {
-    const Eigen::Vector3d& p = pts[i];
-    if (!std::isfinite(p.x())) continue;
+    if (!std::isfinite(pts[i].x())) continue;
+    const Eigen::Vector3d p = pts[i].template cast<double>();
     n += 1.0;
     sum_r += ranges[i];
     x += p.x();
@@ -81,11 +82,14 @@ bool makeSegment3(const std::vector<Eigen::Vector3d>& pts, const std::vector<dou
   while (a < b && !std::isfinite(pts[a].x())) ++a;
   while (b > a && !std::isfinite(pts[b].x())) --b;
   const Eigen::Vector3d c = s.moments.mean();
-  const Eigen::Vector3d d = (pts[b] - pts[a]).normalized();
-  s.start = c + d * d.dot(pts[a] - c);
-  s.end = c + d * d.dot(pts[b] - c);
+  const Eigen::Vector3d pa = pts[a].template cast<double>(), pb = pts[b].template cast<double>();
+  const Eigen::Vector3d d = (pb - pa).normalized();
+  s.start = c + d * d.dot(pa - c);
+  s.end = c + d * d.dot(pb - c);
   return true;
 }
+template bool makeSegment3(const std::vector<Eigen::Vector3d>&, const std::vector<double>&, int, int, int, Segment3&);
+template bool makeSegment3(const std::vector<Eigen::Vector3f>&, const std::vector<float>&, int, int, int, Segment3&);
 
 std::string GroupingParams::validate() const {
   std::ostringstream s;

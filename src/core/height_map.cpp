@@ -38,6 +38,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     }
   }
 
+  const bool floor_known = out.floor_plane >= 0;
   // Fill each walkable plane's polygon (holes by the even-odd rule) row by row.
   struct Edge {
     double ax, ay, bx, by;
@@ -102,16 +103,12 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
           if (std::isnan(out.heights[c]) || z > out.heights[c]) {  // seen from above: the higher surface
             out.heights[c] = static_cast<float>(z);
             out.plane_ids[c] = pl.id;
+            out.classes[c] = floor_known && std::abs(z - out.floor_height) <= p.floor_tolerance ? CellClass::Floor
+                                                                                              : CellClass::Step;
           }
         }
       }
     }
-  }
-  for (std::size_t c = 0; c < cells; ++c) {
-    if (out.plane_ids[c] < 0) continue;
-    out.classes[c] = (out.floor_plane >= 0 && std::abs(out.heights[c] - out.floor_height) <= p.floor_tolerance)
-                         ? CellClass::Floor
-                         : CellClass::Step;
   }
 
   // Obstacles: points outside walkable planes that stand above the cell's

@@ -163,10 +163,6 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
   line.intensities = in.intensities;
   line.edges = in.edges;
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::vector<Eigen::Vector3d>& pts = pts_;
-  std::vector<double>& rng = rng_;
-  pts.resize(n);
-  rng.resize(n);
   // The joint angle of every beam (or one for the line at its stamp).
   if (p_.per_beam) {
     if (!joints_.sample(in.stamp, in.time_increment, n, q_)) {
@@ -214,10 +210,8 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
     const double q = q_[i];
     line.tilt[i] = static_cast<float>(q);
     const double r = in.ranges[i];
-    rng[i] = r;
     if (!(std::isfinite(r) && r >= in.range_min && r <= in.range_max)) {
       line.points[i] = Eigen::Vector3f(nan, nan, nan);
-      pts[i] = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
       continue;
     }
     if (q != q_prev) {
@@ -244,7 +238,6 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
     const double px = c * (a00 * vx + a01 * vy + a02 * vz) + s * (b00 * vx + b01 * vy + b02 * vz) + kv * Ak.x() + o.x();
     const double py = c * (a10 * vx + a11 * vy + a12 * vz) + s * (b10 * vx + b11 * vy + b12 * vz) + kv * Ak.y() + o.y();
     const double pz = c * (a20 * vx + a21 * vy + a22 * vz) + s * (b20 * vx + b21 * vy + b22 * vz) + kv * Ak.z() + o.z();
-    pts[i] = Eigen::Vector3d(px, py, pz);
     line.points[i] = Eigen::Vector3f(static_cast<float>(px), static_cast<float>(py), static_cast<float>(pz));
   }
   const int index = static_cast<int>(current_.lines.size());
@@ -253,7 +246,7 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
   for (const auto& [first, last] : in.segments) {
     if (first < 0 || last >= static_cast<int>(n) || last < first) continue;
     Segment3 s;
-    if (makeSegment3(pts, rng, index, first, last, s)) segs.push_back(s);
+    if (makeSegment3(line.points, in.ranges, index, first, last, s)) segs.push_back(s);
   }
   grouper_.addLine(segs);
   current_.lines.push_back(std::move(line));

@@ -30,9 +30,11 @@ struct Segment3 {
 
 /// A segment of the points pts[first..last] (NaN points skipped) with their
 /// ranges: moments, mean range, and end points on the points' own line.
-/// False when fewer than two points are valid.
-bool makeSegment3(const std::vector<Eigen::Vector3d>& pts, const std::vector<double>& ranges, int line, int first,
-                  int last, Segment3& out);
+/// False when fewer than two points are valid. For Vector3d points with
+/// double ranges, and Vector3f points with float ranges (a scan's own).
+template <class Point, class Range>
+bool makeSegment3(const std::vector<Point>& pts, const std::vector<Range>& ranges, int line, int first, int last,
+                  Segment3& out);
 
 struct GroupingParams {
   double dist_min = 0.03;         ///< plane distance threshold floor [m]

@@ -157,9 +157,8 @@ class SweepAssembler {
   SweepCounters counters_;
   std::string warning_;
   // per-line buffers
-  std::vector<double> q_, rng_;
+  std::vector<double> q_;
   std::vector<Eigen::Vector3d> dir_;  // beam directions in the joint frame
-  std::vector<Eigen::Vector3d> pts_;
   double trig_min_ = 0.0, trig_inc_ = 0.0;
 };
 
