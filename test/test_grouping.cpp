@@ -42,6 +42,29 @@ std::vector<Plane> group(const std::vector<std::vector<Segment3>>& lines, ScanLi
   return planes;
 }
 
+/// The planes of a step: floors (horizontal at z = 0), risers (facing x),
+/// treads (horizontal at z = tread_z); the last of each kind found.
+struct StepPlanes {
+  int floors = 0, risers = 0, treads = 0;
+  const Plane *riser = nullptr, *tread = nullptr;
+};
+StepPlanes stepPlanes(const std::vector<Plane>& planes, double tread_z) {
+  StepPlanes out;
+  for (const auto& p : planes) {
+    const bool horizontal = std::abs(p.fit.normal.z()) > 0.999;
+    if (horizontal && std::abs(p.fit.offset) < 1e-9) ++out.floors;
+    if (horizontal && std::abs(p.fit.centroid.z() - tread_z) < 1e-9) {
+      ++out.treads;
+      out.tread = &p;
+    }
+    if (std::abs(p.fit.normal.x()) > 0.999) {
+      ++out.risers;
+      out.riser = &p;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 TEST(Moments3, TransformIsExact) {
@@ -95,22 +118,15 @@ TEST(Grouping, AStepGivesTreadRiserAndFloor) {
   ScanLineGrouper g;
   const auto planes = group(lines, g);
   ASSERT_EQ(planes.size(), 3u);
-  int floors = 0, risers = 0, treads = 0;
-  for (const auto& p : planes) {
-    if (std::abs(p.fit.normal.z()) > 0.999 && std::abs(p.fit.offset) < 1e-9) ++floors;
-    if (std::abs(p.fit.normal.z()) > 0.999 && std::abs(p.fit.centroid.z() - 0.15) < 1e-9) ++treads;
-    if (std::abs(p.fit.normal.x()) > 0.999) {
-      ++risers;
-      // Its two lines and the floor's last line (x = 1.4, z = 0: on the crease
-      // itself, on both planes), which goes to the plane of fewer lines.
-      EXPECT_NEAR(p.fit.centroid.x(), 1.4, 1e-9);
-      EXPECT_EQ(p.segments, 3);
-      EXPECT_NEAR(p.fit.centroid.z(), 0.05, 1e-9);
-    }
-  }
-  EXPECT_EQ(floors, 1);
-  EXPECT_EQ(risers, 1);
-  EXPECT_EQ(treads, 1);
+  const StepPlanes step = stepPlanes(planes, 0.15);
+  EXPECT_EQ(step.floors, 1);
+  EXPECT_EQ(step.treads, 1);
+  ASSERT_EQ(step.risers, 1);
+  // Its two lines and the floor's last line (x = 1.4, z = 0: on the crease
+  // itself, on both planes), which goes to the plane of fewer lines.
+  EXPECT_NEAR(step.riser->fit.centroid.x(), 1.4, 1e-9);
+  EXPECT_EQ(step.riser->segments, 3);
+  EXPECT_NEAR(step.riser->fit.centroid.z(), 0.05, 1e-9);
 }
 
 TEST(Grouping, ANoseLineNearTheRiserGoesToTheTread) {
@@ -125,21 +141,12 @@ TEST(Grouping, ANoseLineNearTheRiserGoesToTheTread) {
   ScanLineGrouper g;
   const auto planes = group(lines, g);
   ASSERT_EQ(planes.size(), 3u);
-  int risers = 0, treads = 0;
-  for (const auto& p : planes) {
-    if (std::abs(p.fit.normal.x()) > 0.999) {
-      ++risers;
-      EXPECT_EQ(p.segments, 2);
-      EXPECT_NEAR(p.fit.offset * p.fit.normal.x(), 1.4, 1e-9);
-    }
-    if (std::abs(p.fit.centroid.z() - 0.15) < 1e-9) {
-      ++treads;
-      EXPECT_EQ(p.segments, 5);
-      EXPECT_NEAR(std::abs(p.fit.normal.z()), 1.0, 1e-9);
-    }
-  }
-  EXPECT_EQ(risers, 1);
-  EXPECT_EQ(treads, 1);
+  const StepPlanes step = stepPlanes(planes, 0.15);
+  ASSERT_EQ(step.risers, 1);
+  ASSERT_EQ(step.treads, 1);
+  EXPECT_EQ(step.riser->segments, 2);
+  EXPECT_NEAR(step.riser->fit.offset * step.riser->fit.normal.x(), 1.4, 1e-9);
+  EXPECT_EQ(step.tread->segments, 5);
 }
 
 TEST(Grouping, APairOfARiserAndATreadLineIsTakenApart) {
@@ -156,20 +163,12 @@ TEST(Grouping, APairOfARiserAndATreadLineIsTakenApart) {
   ScanLineGrouper g;
   const auto planes = group(lines, g);
   ASSERT_EQ(planes.size(), 3u);
-  int risers = 0, treads = 0;
-  for (const auto& p : planes) {
-    if (std::abs(p.fit.normal.x()) > 0.999) {
-      ++risers;
-      EXPECT_EQ(p.segments, 4);
-      EXPECT_EQ(p.points, 76);
-    }
-    if (std::abs(p.fit.centroid.z() - 0.15) < 1e-9) {
-      ++treads;
-      EXPECT_EQ(p.segments, 4);
-    }
-  }
-  EXPECT_EQ(risers, 1);
-  EXPECT_EQ(treads, 1);
+  const StepPlanes step = stepPlanes(planes, 0.15);
+  ASSERT_EQ(step.risers, 1);
+  ASSERT_EQ(step.treads, 1);
+  EXPECT_EQ(step.riser->segments, 4);
+  EXPECT_EQ(step.riser->points, 76);
+  EXPECT_EQ(step.tread->segments, 4);
 }
 
 TEST(Grouping, APlaneWithAHole) {

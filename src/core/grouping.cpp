@@ -183,7 +183,7 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
   double best_score = 1e300;
   for (const int rj : among) {
     const Region& o = regions_[rj];
-    if (rj == except || o.dead || o.lines < min_lines || o.last_line == o.first_line) continue;
+    if (rj == except || o.dead || o.lines < std::max(2, min_lines)) continue;
     if (s.line < o.first_line - p_.max_line_gap || s.line > o.last_line + p_.max_line_gap) continue;
     bool overlap = false;
     const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
@@ -264,6 +264,68 @@ void ScanLineGrouper::settlePairs() {
   }
 }
 
+void ScanLineGrouper::removeMember(int region, int si) {
+  Region& r = regions_[region];
+  const Moments3& m = segs_[si].moments;
+  r.members.erase(std::remove(r.members.begin(), r.members.end(), si), r.members.end());
+  r.moments.n -= m.n;
+  r.moments.s -= m.s;
+  r.moments.ss -= m.ss;
+  r.fit = fitPlane(r.moments);
+  r.first_line = segs_[r.members.front()].line;
+  r.last_line = segs_[r.members.back()].line;
+  r.lines = countLines(r.members, segs_);
+  seg_region_[si] = -1;
+}
+
+bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand) {
+  // A segment on a crease fits the planes on both sides; the first to come
+  // took it. Give each boundary segment to the neighbouring plane it lies
+  // nearer to, if that plane accepts it.
+  bool moved = false;
+  for (std::size_t si = 0; si < segs_.size(); ++si) {
+    const int ri = seg_region_[si];
+    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3) continue;
+    const Region& own = regions_[ri];
+    const Segment3& s = segs_[si];
+    if (s.line != own.first_line && s.line != own.last_line) continue;
+    const Eigen::Vector3d c = s.moments.mean();
+    // Its distance to its own plane fitted without it (it pulled that plane towards itself).
+    Moments3 rest = own.moments;
+    rest.n -= s.moments.n;
+    rest.s -= s.moments.s;
+    rest.ss -= s.moments.ss;
+    const PlaneFit own_fit = fitPlane(rest);
+    const double d_own = std::abs(own_fit.normal.dot(c) - own_fit.offset);
+    // On the crease itself (as near one plane as the other, to a quarter of
+    // the tolerance) it goes to the plane of fewer lines, which it constrains
+    // more (a box's front face below its top).
+    const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+    int best = -1;
+    double best_d = d_own;
+    for (int rj : cand) {
+      const Region& o = regions_[rj];
+      if (rj == ri || o.dead || o.lines < 2) continue;
+      if (s.line < o.first_line - 1 || s.line > o.last_line + 1) continue;
+      const double d = std::abs(o.fit.normal.dot(c) - o.fit.offset);
+      const bool tie = best < 0 && o.lines + 1 < own.lines && d < d_own + 0.25 * tol;
+      if ((d >= best_d && !tie) || d > tol) continue;
+      bool overlap = false;
+      const auto [m0, m1] = membersIn(o, s.line - 1, s.line + 1);
+      for (auto mi = m0; mi != m1 && !overlap; ++mi) overlap = segs_[*mi].first <= s.last && s.first <= segs_[*mi].last;
+      if (overlap) {
+        best = rj;
+        best_d = d;
+      }
+    }
+    if (best < 0) continue;
+    removeMember(ri, static_cast<int>(si));
+    addMember(best, static_cast<int>(si));
+    moved = true;
+  }
+  return moved;
+}
+
 void ScanLineGrouper::absorb(int into, int from) {
   Region& a = regions_[into];
   Region& b = regions_[from];
@@ -276,7 +338,6 @@ void ScanLineGrouper::absorb(int into, int from) {
   a.lines = countLines(a.members, segs_);
   a.fit = fitPlane(a.moments);
   b.dead = true;
-  b.parent = into;
   b.members.clear();
 }
 
@@ -375,59 +436,10 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
   }
   settlePairs();
   collect();
-  // A segment on a crease fits the planes on both sides; the first to come
-  // took it. Give each boundary segment to the neighbouring plane it lies
-  // nearer to, if that plane accepts it; again while segments move (a move
-  // refits both planes), at most a few times.
-  bool moved = true;
-  for (int pass = 0; pass < 3 && moved; ++pass) {
-  moved = false;
-  for (std::size_t si = 0; si < segs_.size(); ++si) {
-    const int ri = seg_region_[si];
-    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3) continue;
-    Region& own = regions_[ri];
-    const Segment3& s = segs_[si];
-    if (s.line != own.first_line && s.line != own.last_line) continue;
-    const Eigen::Vector3d c = s.moments.mean();
-    // Its distance to its own plane fitted without it (it pulled that plane towards itself).
-    Moments3 rest = own.moments;
-    rest.n -= s.moments.n;
-    rest.s -= s.moments.s;
-    rest.ss -= s.moments.ss;
-    const PlaneFit own_fit = fitPlane(rest);
-    const double d_own = std::abs(own_fit.normal.dot(c) - own_fit.offset);
-    // On the crease itself (as near one plane as the other, to a quarter of
-    // the tolerance) it goes to the plane of fewer lines, which it constrains
-    // more (a box's front face below its top).
-    const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
-    int best = -1;
-    double best_d = d_own;
-    for (int rj : cand) {
-      const Region& o = regions_[rj];
-      if (rj == ri || o.dead || o.members.size() < 2 || o.last_line == o.first_line) continue;
-      if (s.line < o.first_line - 1 || s.line > o.last_line + 1) continue;
-      const double d = std::abs(o.fit.normal.dot(c) - o.fit.offset);
-      const bool tie = best < 0 && o.lines + 1 < own.lines && d < d_own + 0.25 * tol;
-      if ((d >= best_d && !tie) || d > tol) continue;
-      bool overlap = false;
-      const auto [m0, m1] = membersIn(o, s.line - 1, s.line + 1);
-      for (auto mi = m0; mi != m1 && !overlap; ++mi) overlap = segs_[*mi].first <= s.last && s.first <= segs_[*mi].last;
-      if (overlap) {
-        best = rj;
-        best_d = d;
-      }
-    }
-    if (best < 0) continue;
-    own.members.erase(std::remove(own.members.begin(), own.members.end(), static_cast<int>(si)), own.members.end());
-    own.moments = rest;
-    own.fit = own_fit;
-    own.first_line = segs_[own.members.front()].line;
-    own.last_line = segs_[own.members.back()].line;
-    own.lines = countLines(own.members, segs_);
-    addMember(best, static_cast<int>(si));
-    moved = true;
-  }
-  }
+  // Segments on creases, again while segments move (a move refits both
+  // planes), at most a few times.
+  for (int pass = 0; pass < 3; ++pass)
+    if (!moveCreaseSegments(cand)) break;
 
   // Late joins: pieces of a line that the split cut short (or that came before
   // their plane was seeded) join a plane of their neighbourhood that they fit.

@@ -211,24 +211,17 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   last_group_ms_ = 1e3 * sweep.group_seconds;
   last_planes_ = sweep.planes.size();
   ++published_;
-  if (map_cloud_pub_.getNumSubscribers() > 0) {
+  // The clouds for rviz are built only while somebody listens.
+  const auto publishCloud = [&](ros::Publisher& pub, const auto& fill) {
+    if (pub.getNumSubscribers() == 0) return;
     auto c = boost::make_shared<sensor_msgs::PointCloud2>();
-    heightMapCloud(grid, *c);
+    fill(*c);
     c->header = header;
-    map_cloud_pub_.publish(c);
-  }
-  if (sweep_cloud_pub_.getNumSubscribers() > 0) {
-    auto c = boost::make_shared<sensor_msgs::PointCloud2>();
-    sweepCloud(sweep, *c);
-    c->header = header;
-    sweep_cloud_pub_.publish(c);
-  }
-  if (edges_pub_.getNumSubscribers() > 0) {
-    auto c = boost::make_shared<sensor_msgs::PointCloud2>();
-    edgeCloud(sweep, *c);
-    c->header = header;
-    edges_pub_.publish(c);
-  }
+    pub.publish(c);
+  };
+  publishCloud(map_cloud_pub_, [&](sensor_msgs::PointCloud2& c) { heightMapCloud(grid, c); });
+  publishCloud(sweep_cloud_pub_, [&](sensor_msgs::PointCloud2& c) { sweepCloud(sweep, c); });
+  publishCloud(edges_pub_, [&](sensor_msgs::PointCloud2& c) { edgeCloud(sweep, c); });
   if (markers_pub_.getNumSubscribers() > 0) {
     auto m = boost::make_shared<visualization_msgs::MarkerArray>();
     planeMarkers(sweep.planes, header, *m);

@@ -160,7 +160,8 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
         for (int i = s.first; i <= s.last; ++i) ++faces[it->second.face[i]];
         const int pl = sw.segment_plane[si];
         const auto on_face = overlap.find({pl, f});
-        if (faces[f] < 3 && !(on_face != overlap.end() && on_face->second >= 0.1 * face_count[f])) continue;
+        const auto on_it = faces.find(f);
+        if ((on_it == faces.end() || on_it->second < 3) && !(on_face != overlap.end() && on_face->second >= 0.1 * face_count[f])) continue;
         int mf = -1, mn = -1;
         for (const auto& [face, n] : faces)
           if (n > mn) {

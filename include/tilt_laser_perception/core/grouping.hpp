@@ -89,12 +89,11 @@ class ScanLineGrouper {
     int lines = 0;       // distinct scan lines among the members
     PlaneFit fit;
     bool dead = false;   // merged into another
-    int parent = -1;
   };
   bool fits(const Region& r, const Segment3& s, double& score) const;
   /// Three lines or more span a plane; two parallel lines fit any plane through both.
   static bool confirmed(const Region& r) { return r.lines >= 3; }
-  /// The region `among` those of `min_lines` lines or more (not `except`)
+  /// The region `among` those of `min_lines` lines (at least two) or more (not `except`)
   /// that s fits best; it must overlap a member of the lines near s. -1 for none.
   int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines) const;
   /// Whether two segments of different lines seed a plane (side by side,
@@ -111,7 +110,11 @@ class ScanLineGrouper {
                                                                                          int line_hi) const;
   bool planesAgree(const Region& a, const Region& b) const;
   void absorb(int into, int from);
-  void addMember(int region, int segment);  // keeps members sorted, refits
+  void addMember(int region, int segment);     // keeps members sorted, refits
+  void removeMember(int region, int segment);  // refits
+  /// One pass giving segments on a crease to the neighbouring plane they lie
+  /// nearer to; true when one moved.
+  bool moveCreaseSegments(const std::vector<int>& cand);
   void buildPolygon(const Region& r, Plane& out) const;
 
   GroupingParams p_;
