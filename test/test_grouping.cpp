@@ -189,6 +189,31 @@ TEST(Grouping, APlaneWithAHole) {
   EXPECT_NEAR(planes[0].area, 0.45 * 2.0 - 0.15 * 0.4, 1e-9);
 }
 
+TEST(Grouping, ACornerIsWhereItsRayMeetsThePlane) {
+  // Line 5 ends in a mixed pixel: 4 cm further along its ray than the
+  // floor's edge at y = 1, below the floor. Straight down onto the plane it
+  // would stick out past the edge; along its ray it is the edge itself.
+  const Eigen::Vector3d sensor(0, 0, 1.5), edge(1.25, 1.0, 0.0);
+  const Eigen::Vector3d mixed = edge + 0.04 * (edge - sensor).normalized();
+  for (const bool ray_known : {true, false}) {
+    auto lines = floorLines(10, 1.0, 0.05, 0.0, -1.0, 1.0);
+    for (auto& l : lines)
+      for (auto& s : l)
+        if (ray_known) s.origin = sensor;
+    lines[5][0].end = mixed;
+    ScanLineGrouper g;
+    const auto planes = group(lines, g);
+    ASSERT_EQ(planes.size(), 1u);
+    ASSERT_EQ(planes[0].segments, 10);
+    double y_max = -1.0;
+    for (const auto& v : planes[0].boundary) y_max = std::max(y_max, v.y());
+    if (ray_known)
+      EXPECT_NEAR(y_max, 1.0, 1e-9);
+    else
+      EXPECT_NEAR(y_max, mixed.y(), 1e-9);  // 1.8 cm past the edge
+  }
+}
+
 TEST(Grouping, AnLShapedFloorAroundABox) {
   // The floor's right part is hidden by a box on lines 4..9: the floor's lines end early there.
   std::vector<std::vector<Segment3>> lines;

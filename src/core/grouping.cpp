@@ -10,6 +10,8 @@ namespace core {
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
+/// A ray meeting a plane at less than this sine of an angle grazes it.
+constexpr double kMinRayIncidence = 0.1;
 
 /// Area of a polygon given in the plane (u, v) coordinates of a fit.
 double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
@@ -479,7 +481,19 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
 
 void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
   const PlaneFit& f = out.fit;
-  const auto onPlane = [&](const Eigen::Vector3d& x) { return Eigen::Vector3d(x - (f.normal.dot(x) - f.offset) * f.normal); };
+  // A corner on the plane: where the point's ray meets it (range noise and a
+  // mixed pixel move a point along its ray only), or straight down onto the
+  // plane where the ray is unknown or grazes it.
+  const auto onPlane = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& o) {
+    const double dist = f.normal.dot(x) - f.offset;
+    const Eigen::Vector3d ray = x - o;
+    const double along = f.normal.dot(ray);
+    if (std::isfinite(along) && std::abs(along) >= kMinRayIncidence * ray.norm()) {
+      const double t = dist / along;  // x - t ray is on the plane
+      if (std::abs(t) < 0.5) return Eigen::Vector3d(x - t * ray);
+    }
+    return Eigen::Vector3d(x - dist * f.normal);
+  };
   // Members by line, each line's members by beam.
   std::map<int, std::vector<const Segment3*>> lines;
   for (int m : r.members) lines[segs_[m].line].push_back(&segs_[m]);
@@ -488,8 +502,8 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
   // Outer boundary: where each line enters the plane, then back along where it leaves.
   std::vector<Eigen::Vector3d> left, right;
   for (const auto& kv : lines) {
-    left.push_back(onPlane(kv.second.front()->start));
-    right.push_back(onPlane(kv.second.back()->end));
+    left.push_back(onPlane(kv.second.front()->start, kv.second.front()->origin));
+    right.push_back(onPlane(kv.second.back()->end, kv.second.back()->origin));
   }
   out.boundary = left;
   out.boundary.insert(out.boundary.end(), right.rbegin(), right.rend());
@@ -505,7 +519,7 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
     std::vector<int> next_open;
     const auto& segs = kv.second;
     for (std::size_t i = 0; i + 1 < segs.size(); ++i) {
-      Gap g{kv.first, segs[i]->last, segs[i + 1]->first, onPlane(segs[i]->end), onPlane(segs[i + 1]->start)};
+      Gap g{kv.first, segs[i]->last, segs[i + 1]->first, onPlane(segs[i]->end, segs[i]->origin), onPlane(segs[i + 1]->start, segs[i + 1]->origin)};
       int chain = -1;
       for (int c : open_chains) {
         const Gap& prev = chains[c].back();

@@ -22,7 +22,10 @@ void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3
   const auto P = [&](int i) { return pd[i]; };
   const auto emit = [&](int a, int b) {
     Segment3 s;
-    if (b - a + 1 >= p.min_points && makeSegment3(pd, r, line, a, b, s)) out.push_back(s);
+    if (b - a + 1 >= p.min_points && makeSegment3(pd, r, line, a, b, s)) {
+      s.origin = origin;
+      out.push_back(s);
+    }
   };
   std::vector<std::pair<int, int>> stack;
   int start = -1;

@@ -246,7 +246,11 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
   for (const auto& [first, last] : in.segments) {
     if (first < 0 || last >= static_cast<int>(n) || last < first) continue;
     Segment3 s;
-    if (makeSegment3(line.points, in.ranges, index, first, last, s)) segs.push_back(s);
+    if (!makeSegment3(line.points, in.ranges, index, first, last, s)) continue;
+    // The laser's origin (v = j) at the segment's middle beam.
+    const double qm = q_[(first + last) / 2], cm = std::cos(qm), sm = std::sin(qm);
+    s.origin = cm * (A * j) + sm * (B * j) + (1.0 - cm) * k.dot(j) * Ak + o;
+    segs.push_back(s);
   }
   grouper_.addLine(segs);
   current_.lines.push_back(std::move(line));

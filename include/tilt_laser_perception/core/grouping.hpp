@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,9 @@ struct Segment3 {
   Eigen::Vector3d start = Eigen::Vector3d::Zero(), end = Eigen::Vector3d::Zero();  ///< end points [m]
   Moments3 moments;           ///< of its points in 3D
   double range = 0.0;         ///< mean range of its points [m]
+  /// Where the sensor saw it from (NaN: unknown). Range noise moves a point
+  /// along its ray, so a polygon corner is put where the ray meets the plane.
+  Eigen::Vector3d origin = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   double length() const { return (end - start).norm(); }
 };
 
