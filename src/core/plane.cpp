@@ -13,7 +13,8 @@ PlaneFit fitPlane(const Moments3& m) {
   if (m.n < 1.0) return f;
   f.centroid = m.mean();
   const Eigen::Matrix3d cov = m.ss / m.n - f.centroid * f.centroid.transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(cov);
   const Eigen::Vector3d ev = es.eigenvalues();  // ascending
   f.normal = es.eigenvectors().col(0).normalized();
   f.offset = f.normal.dot(f.centroid);
