@@ -25,14 +25,20 @@ bool JointBuffer::sample(double t0, double dt, std::size_t n, std::vector<double
   auto it = std::lower_bound(samples_.begin(), samples_.end(), t0,
                              [](const std::pair<double, double>& s, double v) { return s.first < v; });
   if (it == samples_.begin()) ++it;  // t0 is the first sample: interpolate on the first interval
-  for (std::size_t i = 0; i < n; ++i) {
-    const double t = t0 + i * dt;
-    while (it != samples_.end() && it->first < t) ++it;
+  // One interval [a, b] at a time: its beams lie on one straight ramp.
+  std::size_t i = 0;
+  while (i < n) {
     if (it == samples_.end()) return false;
     const auto& b = *it;
     const auto& a = *(it - 1);
+    ++it;
+    const double t = t0 + i * dt;
+    if (b.first < t) continue;
     if (b.first - a.first > max_gap_) return false;
-    q[i] = a.second + (t - a.first) / (b.first - a.first) * (b.second - a.second);
+    const double slope = (b.second - a.second) / (b.first - a.first);
+    // Beams up to b's time (the last beam is inside the buffer, checked above).
+    const std::size_t end = dt > 0.0 ? std::min(n, static_cast<std::size_t>(std::floor((b.first - t0) / dt)) + 1) : n;
+    for (; i < end; ++i) q[i] = a.second + (t0 + i * dt - a.first) * slope;
   }
   return true;
 }
@@ -162,7 +168,6 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
   line.tilt.resize(n);
   line.intensities = in.intensities;
   line.edges = in.edges;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
   // The joint angle of every beam (or one for the line at its stamp).
   if (p_.per_beam) {
     if (!joints_.sample(in.stamp, in.time_increment, n, q_)) {
@@ -179,67 +184,7 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
     }
     q_.assign(n, q0);
   }
-  // Beam directions in the joint frame, cached while the scan geometry stays the same.
-  if (dir_.size() != n || trig_min_ != in.angle_min || trig_inc_ != in.angle_increment) {
-    dir_.resize(n);
-    const Eigen::Matrix3d JL = chain_.joint_to_laser.linear();
-    for (std::size_t i = 0; i < n; ++i) {
-      const double a = in.angle_min + i * in.angle_increment;
-      dir_[i] = JL.col(0) * std::cos(a) + JL.col(1) * std::sin(a);
-    }
-    trig_min_ = in.angle_min;
-    trig_inc_ = in.angle_increment;
-  }
-  // p = O (R(axis, q) v) + o with v = r u + j (u the beam's direction, j the
-  // laser's origin in the joint frame), O and o the joint's pose, and R by
-  // Rodrigues' formula: O R v = c (O v) + s (O [k]x v) + (1 - c) (k . v) O k.
-  // Written out in scalars (Eigen's expression templates stay out of line at -O2).
-  const Eigen::Isometry3d joint_pose = base * chain_.base_to_joint;
-  const Eigen::Vector3d k = chain_.axis;
-  Eigen::Matrix3d K;
-  K << 0, -k.z(), k.y(), k.z(), 0, -k.x(), -k.y(), k.x(), 0;
-  const Eigen::Matrix3d A = joint_pose.linear(), B = A * K;
-  const Eigen::Vector3d Ak = A * k, o = joint_pose.translation(), j = chain_.joint_to_laser.translation();
-  const double a00 = A(0, 0), a01 = A(0, 1), a02 = A(0, 2), a10 = A(1, 0), a11 = A(1, 1), a12 = A(1, 2), a20 = A(2, 0),
-               a21 = A(2, 1), a22 = A(2, 2);
-  const double b00 = B(0, 0), b01 = B(0, 1), b02 = B(0, 2), b10 = B(1, 0), b11 = B(1, 1), b12 = B(1, 2), b20 = B(2, 0),
-               b21 = B(2, 1), b22 = B(2, 2);
-  double q_prev = std::numeric_limits<double>::quiet_NaN(), c = 1.0, s = 0.0;
-  int since_exact = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double q = q_[i];
-    line.tilt[i] = static_cast<float>(q);
-    const double r = in.ranges[i];
-    if (!(std::isfinite(r) && r >= in.range_min && r <= in.range_max)) {
-      line.points[i] = Eigen::Vector3f(nan, nan, nan);
-      continue;
-    }
-    if (q != q_prev) {
-      // From beam to beam the joint moves by microradians: turn (c, s) on by
-      // that step (Taylor terms to d^4: exact in double for |d| < 1e-3)
-      // rather than calling cos and sin per beam; exact again every 128 steps.
-      const double d = q - q_prev;
-      if (std::abs(d) < 1e-3 && ++since_exact < 128) {
-        const double d2 = d * d;
-        const double cd = 1.0 - 0.5 * d2 + d2 * d2 / 24.0, sd = d * (1.0 - d2 / 6.0);
-        const double c2 = c * cd - s * sd;
-        s = s * cd + c * sd;
-        c = c2;
-      } else {
-        c = std::cos(q);
-        s = std::sin(q);
-        since_exact = 0;
-      }
-      q_prev = q;
-    }
-    const Eigen::Vector3d& u = dir_[i];
-    const double vx = r * u.x() + j.x(), vy = r * u.y() + j.y(), vz = r * u.z() + j.z();
-    const double kv = (1.0 - c) * (k.x() * vx + k.y() * vy + k.z() * vz);
-    const double px = c * (a00 * vx + a01 * vy + a02 * vz) + s * (b00 * vx + b01 * vy + b02 * vz) + kv * Ak.x() + o.x();
-    const double py = c * (a10 * vx + a11 * vy + a12 * vz) + s * (b10 * vx + b11 * vy + b12 * vz) + kv * Ak.y() + o.y();
-    const double pz = c * (a20 * vx + a21 * vy + a22 * vz) + s * (b20 * vx + b21 * vy + b22 * vz) + kv * Ak.z() + o.z();
-    line.points[i] = Eigen::Vector3f(static_cast<float>(px), static_cast<float>(py), static_cast<float>(pz));
-  }
+  const Eigen::Vector3d origin = transformBeams(in, base, line);
   const int index = static_cast<int>(current_.lines.size());
   std::vector<Segment3> segs;
   segs.reserve(in.segments.size());
@@ -247,9 +192,7 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
     if (first < 0 || last >= static_cast<int>(n) || last < first) continue;
     Segment3 s;
     if (!makeSegment3(line.points, in.ranges, index, first, last, s)) continue;
-    // The laser's origin (v = j) at the segment's middle beam.
-    const double qm = q_[(first + last) / 2], cm = std::cos(qm), sm = std::sin(qm);
-    s.origin = cm * (A * j) + sm * (B * j) + (1.0 - cm) * k.dot(j) * Ak + o;
+    s.origin = origin;
     segs.push_back(s);
   }
   grouper_.addLine(segs);
@@ -257,6 +200,104 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
   current_.group_seconds += cpuNow() - t0;
   ++counters_.lines;
   return true;
+}
+
+Eigen::Vector3d SweepAssembler::transformBeams(const LineInput& in, const Eigen::Isometry3d& base, SweepLine& line) {
+  const std::size_t n = in.ranges.size();
+  // Beam directions in the joint frame, cached while the scan geometry stays the same.
+  if (ux_.size() != n || trig_min_ != in.angle_min || trig_inc_ != in.angle_increment) {
+    ux_.resize(n);
+    uy_.resize(n);
+    uz_.resize(n);
+    const Eigen::Matrix3d JL = chain_.joint_to_laser.linear();
+    for (std::size_t i = 0; i < n; ++i) {
+      const double a = in.angle_min + i * in.angle_increment;
+      const Eigen::Vector3d u = JL.col(0) * std::cos(a) + JL.col(1) * std::sin(a);
+      ux_[i] = static_cast<float>(u.x());
+      uy_[i] = static_cast<float>(u.y());
+      uz_[i] = static_cast<float>(u.z());
+    }
+    trig_min_ = in.angle_min;
+    trig_inc_ = in.angle_increment;
+  }
+  // p = O (R(axis, q) v) + o with v = r u + j (u the beam's direction, j the
+  // laser's origin in the joint frame), O and o the joint's pose, and R by
+  // Rodrigues' formula: O R v = c (O v) + s (O [k]x v) + (1 - c) (k . v) O k.
+  const Eigen::Isometry3d joint_pose = base * chain_.base_to_joint;
+  const Eigen::Vector3d k = chain_.axis;
+  Eigen::Matrix3d K;
+  K << 0, -k.z(), k.y(), k.z(), 0, -k.x(), -k.y(), k.x(), 0;
+  const Eigen::Matrix3d A = joint_pose.linear(), B = A * K;
+  const Eigen::Vector3d Ak = A * k, o = joint_pose.translation(), j = chain_.joint_to_laser.translation();
+
+  // cos and sin of each beam's angle from those of the line's middle one:
+  // q = qm + d, |d| the joint's travel in half a scan (milliradians), so
+  // cos d and sin d by their Taylor series (to d^6 and d^7: within float's
+  // precision for |d| < 0.5); exact ones where the joint went farther.
+  const double qm = q_[n / 2], cm = std::cos(qm), sm = std::sin(qm);
+  dq_.resize(n);
+  c_.resize(n);
+  s_.resize(n);
+  double dmax = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    line.tilt[i] = static_cast<float>(q_[i]);
+    const double d = q_[i] - qm;
+    dq_[i] = static_cast<float>(d);
+    dmax = std::max(dmax, std::abs(d));
+  }
+  if (dmax < 0.5) {
+    const float fcm = static_cast<float>(cm), fsm = static_cast<float>(sm);
+    const float* dq = dq_.data();
+    float* c = c_.data();
+    float* s = s_.data();
+#pragma omp simd
+    for (std::size_t i = 0; i < n; ++i) {
+      const float d = dq[i], d2 = d * d;
+      const float cd = 1.0f - d2 * (0.5f - d2 * (1.0f / 24.0f - d2 * (1.0f / 720.0f)));
+      const float sd = d * (1.0f - d2 * (1.0f / 6.0f - d2 * (1.0f / 120.0f - d2 * (1.0f / 5040.0f))));
+      c[i] = fcm * cd - fsm * sd;
+      s[i] = fsm * cd + fcm * sd;
+    }
+  } else {
+    for (std::size_t i = 0; i < n; ++i) {
+      c_[i] = static_cast<float>(std::cos(q_[i]));
+      s_[i] = static_cast<float>(std::sin(q_[i]));
+    }
+  }
+
+  // The chain in float, one beam per SIMD lane (points are kept in float:
+  // its rounding is microns at the sensor's 30 m).
+  const auto f = [](double v) { return static_cast<float>(v); };
+  const float a00 = f(A(0, 0)), a01 = f(A(0, 1)), a02 = f(A(0, 2)), a10 = f(A(1, 0)), a11 = f(A(1, 1)),
+              a12 = f(A(1, 2)), a20 = f(A(2, 0)), a21 = f(A(2, 1)), a22 = f(A(2, 2));
+  const float b00 = f(B(0, 0)), b01 = f(B(0, 1)), b02 = f(B(0, 2)), b10 = f(B(1, 0)), b11 = f(B(1, 1)),
+              b12 = f(B(1, 2)), b20 = f(B(2, 0)), b21 = f(B(2, 1)), b22 = f(B(2, 2));
+  const float kx = f(k.x()), ky = f(k.y()), kz = f(k.z()), akx = f(Ak.x()), aky = f(Ak.y()), akz = f(Ak.z());
+  const float ox = f(o.x()), oy = f(o.y()), oz = f(o.z()), jx = f(j.x()), jy = f(j.y()), jz = f(j.z());
+  px_.resize(n);
+  py_.resize(n);
+  pz_.resize(n);
+  {
+    const float *r = in.ranges.data(), *ux = ux_.data(), *uy = uy_.data(), *uz = uz_.data(), *c = c_.data(),
+                *s = s_.data();
+    float *px = px_.data(), *py = py_.data(), *pz = pz_.data();
+#pragma omp simd
+    for (std::size_t i = 0; i < n; ++i) {
+      const float vx = r[i] * ux[i] + jx, vy = r[i] * uy[i] + jy, vz = r[i] * uz[i] + jz;
+      const float kv = (1.0f - c[i]) * (kx * vx + ky * vy + kz * vz);
+      px[i] = c[i] * (a00 * vx + a01 * vy + a02 * vz) + s[i] * (b00 * vx + b01 * vy + b02 * vz) + kv * akx + ox;
+      py[i] = c[i] * (a10 * vx + a11 * vy + a12 * vz) + s[i] * (b10 * vx + b11 * vy + b12 * vz) + kv * aky + oy;
+      pz[i] = c[i] * (a20 * vx + a21 * vy + a22 * vz) + s[i] * (b20 * vx + b21 * vy + b22 * vz) + kv * akz + oz;
+    }
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double r = in.ranges[i];
+    const bool valid = std::isfinite(r) && r >= in.range_min && r <= in.range_max;
+    line.points[i] = valid ? Eigen::Vector3f(px_[i], py_[i], pz_[i]) : Eigen::Vector3f(nan, nan, nan);
+  }
+  // The laser's origin (v = j) at the middle beam.
+  return cm * (A * j) + sm * (B * j) + (1.0 - cm) * k.dot(j) * Ak + o;
 }
 
 bool SweepAssembler::poll(double now, SweepResult& out) {

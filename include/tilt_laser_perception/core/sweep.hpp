@@ -138,6 +138,8 @@ class SweepAssembler {
   void restart();
   bool finishSweep(double end, SweepResult& out);
   void beginSweep(double start);
+  /// Puts the line's beams in 3D at their joint angles (q_); returns where the laser was at the middle beam.
+  Eigen::Vector3d transformBeams(const LineInput& in, const Eigen::Isometry3d& base, SweepLine& line);
 
   SweepParams p_;
   TiltChain chain_;
@@ -158,7 +160,8 @@ class SweepAssembler {
   std::string warning_;
   // per-line buffers
   std::vector<double> q_;
-  std::vector<Eigen::Vector3d> dir_;  // beam directions in the joint frame
+  std::vector<float> ux_, uy_, uz_;  // beam directions in the joint frame
+  std::vector<float> dq_, c_, s_, px_, py_, pz_;
   double trig_min_ = 0.0, trig_inc_ = 0.0;
 };
 
