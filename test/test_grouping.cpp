@@ -171,6 +171,27 @@ TEST(Grouping, APairOfARiserAndATreadLineIsTakenApart) {
   EXPECT_EQ(step.tread->segments, 4);
 }
 
+TEST(Grouping, TheCloseLinesOfASlowSweepMakeTheSamePlanes) {
+  // A step scanned 1 cm apart (a slow sweep): two or three lines are too
+  // close together to fix a normal, so planes grow as strips until they do.
+  // Floor x 1.00..1.39, riser x = 1.4 at z 0.01..0.14, tread z = 0.15 from x 1.41.
+  std::vector<std::vector<Segment3>> lines = floorLines(40, 1.0, 0.01, 0.0, -0.6, 0.6);
+  for (int k = 1; k <= 14; ++k)
+    lines.push_back({seg(static_cast<int>(lines.size()), 100, {1.4, -0.6, 0.01 * k}, {1.4, 0.6, 0.01 * k})});
+  for (int k = 1; k <= 30; ++k)
+    lines.push_back({seg(static_cast<int>(lines.size()), 100, {1.4 + 0.01 * k, -0.6, 0.15}, {1.4 + 0.01 * k, 0.6, 0.15})});
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 3u);
+  const StepPlanes step = stepPlanes(planes, 0.15);
+  EXPECT_EQ(step.floors, 1);
+  ASSERT_EQ(step.treads, 1);
+  ASSERT_EQ(step.risers, 1);
+  EXPECT_EQ(planes[0].segments + planes[1].segments + planes[2].segments, 84);  // every line
+  EXPECT_EQ(step.riser->segments, 14);
+  EXPECT_EQ(step.tread->segments, 30);
+}
+
 TEST(Grouping, APlaneWithAHole) {
   // Lines 3..6 have a gap between y = -0.2 and 0.2 (beams 160..199): a hole of 4 x 5 cm gaps... 0.15 m x 0.4 m.
   std::vector<std::vector<Segment3>> lines;

@@ -130,8 +130,7 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) co
   const auto [m0, m1] = membersIn(r, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
   for (auto it = m0; it != m1 && !neighbour; ++it) neighbour = near(segs_[*it], s, limit);
   if (!neighbour) return false;
-  const bool planar = r.last_line > r.first_line && r.fit.spread(1) > 0.02;
-  if (planar) {
+  if (planar(r)) {
     const double d1 = std::abs(r.fit.normal.dot(s.start) - r.fit.offset);
     const double d2 = std::abs(r.fit.normal.dot(s.end) - r.fit.offset);
     const double dc = std::abs(r.fit.normal.dot(s.moments.mean()) - r.fit.offset);
@@ -141,9 +140,29 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) co
     score = std::max(d1, d2) / thr;
     return true;
   }
-  // A seed: a lone segment of a line before.
-  if (r.members.size() != 1 || segs_[r.members[0]].line >= s.line) return false;
-  return pairs(segs_[r.members[0]], s, score);
+  // A seed (a lone segment), or a strip of lines too close together to fix
+  // a normal (a slow sweep, a tilt reversal): s must lie side by side with a
+  // member of the lines before, and all of them on one plane.
+  if (r.members.size() == 1) return segs_[r.members[0]].line < s.line && pairs(segs_[r.members[0]], s, score);
+  int ov = -1, longer = 0, line = 0;
+  for (auto it = m0; it != m1; ++it) {
+    const Segment3& m = segs_[*it];
+    if (m.line >= s.line) continue;
+    const int o = std::min(m.last, s.last) - std::max(m.first, s.first) + 1;
+    if (o >= 0.5 * std::min(m.last - m.first + 1, s.last - s.first + 1) && o > ov) {
+      ov = o;
+      longer = std::max(m.last - m.first + 1, s.last - s.first + 1);
+      line = m.line;
+    }
+  }
+  if (ov < 0) return false;
+  Moments3 m = r.moments;
+  m += s.moments;
+  const PlaneFit f = fitPlane(m);
+  const double half = 0.5 * thr;
+  if (f.rms > half) return false;
+  score = 2.0 * (s.line - line - 1) + (1.0 - static_cast<double>(ov) / longer) + f.rms / half;
+  return true;
 }
 
 bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
@@ -213,7 +232,7 @@ bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score)
   m += b.moments;
   const PlaneFit f = fitPlane(m);
   const double thr = 0.5 * p_.threshold(b.range);
-  if (f.spread(1) < 0.01 || f.rms > thr) return false;
+  if (f.rms > thr) return false;
   // Best: the next line, overlapping the whole of the longer segment, coplanar.
   score = 2.0 * (std::abs(b.line - a.line) - 1) + (1.0 - static_cast<double>(ov) / longer) + f.rms / thr;
   return true;

@@ -117,9 +117,12 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   const float x_lo = static_cast<float>(p.origin_x - 0.1), x_hi = static_cast<float>(p.origin_x + p.width * p.resolution + 0.1);
   const float y_lo = static_cast<float>(p.origin_y - 0.1), y_hi = static_cast<float>(p.origin_y + p.height * p.resolution + 0.1);
   const double inv_res = 1.0 / p.resolution;
+  // Most points are outside the map (walls, the far floor) or no return at
+  // all (NaN fails these tests too): tested inline before mark() is called.
+  const auto inMap = [&](const Eigen::Vector3f& point) {
+    return point.x() > x_lo && point.x() < x_hi && point.y() > y_lo && point.y() < y_hi;
+  };
   const auto mark = [&](const Eigen::Vector3f& point, const Plane* plane) {
-    // Outside the map (or no return: NaN fails these too): nothing to do.
-    if (!(point.x() > x_lo && point.x() < x_hi && point.y() > y_lo && point.y() < y_hi)) return;
     // A point of a plane (a wall, a box's side) is put on its plane: range
     // noise would otherwise spill it into the cells in front.
     Eigen::Vector3d q = point.cast<double>();
@@ -146,14 +149,17 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     for (; si < sweep.segments.size() && sweep.segments[si].line == static_cast<int>(li); ++si) {
       const Segment3& s = sweep.segments[si];
       const int pid = sweep.segment_plane[si];
-      for (int i = cursor; i < s.first; ++i) mark(pts[i], nullptr);
+      for (int i = cursor; i < s.first; ++i)
+        if (inMap(pts[i])) mark(pts[i], nullptr);
       if (pid < 0 || !(walkable[pid] || step_face[pid])) {
         const Plane* plane = pid >= 0 ? &sweep.planes[pid] : nullptr;
-        for (int i = std::max(cursor, s.first); i <= s.last; ++i) mark(pts[i], plane);
+        for (int i = std::max(cursor, s.first); i <= s.last; ++i)
+          if (inMap(pts[i])) mark(pts[i], plane);
       }
       cursor = std::max(cursor, s.last + 1);
     }
-    for (int i = cursor; i < static_cast<int>(pts.size()); ++i) mark(pts[i], nullptr);
+    for (int i = cursor; i < static_cast<int>(pts.size()); ++i)
+      if (inMap(pts[i])) mark(pts[i], nullptr);
   }
 }
 

@@ -95,8 +95,11 @@ class ScanLineGrouper {
     bool dead = false;   // merged into another
   };
   bool fits(const Region& r, const Segment3& s, double& score) const;
-  /// Three lines or more span a plane; two parallel lines fit any plane through both.
-  static bool confirmed(const Region& r) { return r.lines >= 3; }
+  /// Whether r's lines lie far enough apart to fix its normal.
+  static bool planar(const Region& r) { return r.last_line > r.first_line && r.fit.spread(1) > 0.02; }
+  /// Three lines or more span a plane (two parallel lines fit any plane
+  /// through both), if they lie far enough apart.
+  static bool confirmed(const Region& r) { return r.lines >= 3 && planar(r); }
   /// The region `among` those of `min_lines` lines (at least two) or more (not `except`)
   /// that s fits best; it must overlap a member of the lines near s. -1 for none.
   int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines) const;
