@@ -1,7 +1,7 @@
 // Scan line grouping against PCL's OrganizedMultiPlaneSegmentation (with
 // integral-image normals) on the same assembled sweep clouds of a scene,
 // judged by the same Hoover criteria against the simulator's truth.
-//   compare_pcl [--scene stairs] [--sweeps 6] [--seed 1]
+//   compare_pcl [--scene stairs] [--sweeps 6] [--seed 1] [--speed 1.0]
 // Prints one summary line per method (evaluate's key=value format) and the
 // time each takes per sweep. Built only where PCL is installed (libpcl-dev).
 #include <cstdio>
@@ -100,8 +100,9 @@ int main(int argc, char** argv) {
     else if (a == "--pcl-distance") ps.distance = std::atof(argv[i + 1]);
     else if (a == "--sweeps") o.sweeps = std::atoi(argv[i + 1]);
     else if (a == "--seed") o.seed = std::strtoull(argv[i + 1], nullptr, 10);
+    else if (a == "--speed") o.profile.speed = std::atof(argv[i + 1]);
     else {
-      std::fprintf(stderr, "usage: compare_pcl [--scene NAME] [--sweeps N] [--seed S] [--pcl-depth-change F]\n"
+      std::fprintf(stderr, "usage: compare_pcl [--scene NAME] [--sweeps N] [--seed S] [--speed RAD_PER_S] [--pcl-depth-change F]\n"
                            "                   [--pcl-smoothing PX] [--pcl-min-inliers N] [--pcl-angle DEG] [--pcl-distance M]\n");
       return 2;
     }

@@ -524,6 +524,47 @@ TEST(HeightMap, FillsPolygonsAndMarksObstacles) {
   EXPECT_EQ(g.floor_plane, 0);
 }
 
+TEST(HeightMap, AMixedPixelIsNoObstacle) {
+  // One scan line from (0, 0, 1.3): a box top (z 0.3, in no plane) up to its
+  // edge E, then a mixed pixel V halfway along E's ray to the floor behind,
+  // then the floor from F on. V stands 0.15 m above the floor, but both its
+  // neighbours lie along its ray: a veil, not an obstacle. E is the box.
+  SweepResult s;
+  Plane floor;
+  floor.fit.normal = Eigen::Vector3d::UnitZ();
+  floor.fit.centroid = Eigen::Vector3d(1, 0, 0);
+  floor.area = 4.0;
+  floor.boundary = {{0, -1, 0}, {2, -1, 0}, {2, 1, 0}, {0, 1, 0}};
+  s.planes = {floor};
+  const Eigen::Vector3f origin(0.0f, 0.0f, 1.3f), edge(1.003f, 0.053f, 0.3f);  // off cell borders
+  const Eigen::Vector3f far = origin + 1.3f * (edge - origin), veil = 0.5f * (edge + far);
+  SweepLine line;
+  line.origin = origin;
+  for (int k = 0; k < 5; ++k) line.points.emplace_back(1.0f, 0.01f * k, 0.3f);
+  line.points.push_back(edge);
+  line.points.push_back(veil);
+  for (int k = 0; k < 5; ++k) line.points.push_back(far + Eigen::Vector3f(0.0f, 0.013f * k, 0.0f));
+  s.lines.push_back(line);
+  HeightMapParams p;
+  p.origin_x = 0.0;
+  p.origin_y = -1.0;
+  p.width = 200;
+  p.height = 200;
+  const auto cell = [&](const HeightMapGrid& g, const Eigen::Vector3f& q) {
+    return g.index(static_cast<int>(q.x() / 0.01), static_cast<int>((q.y() + 1.0) / 0.01));
+  };
+  HeightMapGrid g;
+  buildHeightMap(s, p, g);
+  EXPECT_EQ(g.classes[cell(g, veil)], CellClass::Floor);
+  EXPECT_NEAR(g.heights[cell(g, veil)], 0.0, 1e-6);
+  EXPECT_EQ(g.classes[cell(g, edge)], CellClass::Obstacle);
+  EXPECT_NEAR(g.heights[cell(g, edge)], 0.3, 1e-6);
+  p.veil_angle_deg = 0.0;  // no veil test: V is an obstacle
+  buildHeightMap(s, p, g);
+  EXPECT_EQ(g.classes[cell(g, veil)], CellClass::Obstacle);
+  EXPECT_NEAR(g.heights[cell(g, veil)], veil.z(), 1e-6);
+}
+
 TEST(SweepAssembler, DropsASweepThatLostTooManyLines) {
   SweepCounters c;
   const std::vector<SweepResult> sweeps = runTriangle(0.05, &c);  // 2 or 3 of 24 lines lost: more than 5 %

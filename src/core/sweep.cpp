@@ -185,6 +185,7 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
     q_.assign(n, q0);
   }
   const Eigen::Vector3d origin = transformBeams(in, base, line);
+  line.origin = origin.cast<float>();
   const int index = static_cast<int>(current_.lines.size());
   std::vector<Segment3> segs;
   segs.reserve(in.segments.size());

@@ -69,6 +69,7 @@ struct SweepLine {
   std::vector<float> intensities;  ///< empty when the scan had none
   std::vector<float> tilt;         ///< joint angle at each beam [rad]
   std::vector<std::pair<int, EdgeKind>> edges;
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();  ///< where the laser was at the middle beam [m]
 };
 
 /// A finished sweep.
