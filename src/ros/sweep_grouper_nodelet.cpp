@@ -54,6 +54,8 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("map_origin_y", map_params_.origin_y, map_params_.origin_y);
   pnh.param("map_max_slope_deg", map_params_.max_slope_deg, map_params_.max_slope_deg);
   pnh.param("map_max_step_height", map_params_.max_step_height, map_params_.max_step_height);
+  pnh.param("map_obstacle_min_height", map_params_.obstacle_min_height, map_params_.obstacle_min_height);
+  pnh.param("map_veil_angle_deg", map_params_.veil_angle_deg, map_params_.veil_angle_deg);
   const std::string problem = g.validate();
   if (!problem.empty()) {
     NODELET_ERROR("invalid grouping parameters (%s): using the defaults", problem.c_str());
