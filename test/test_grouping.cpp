@@ -149,6 +149,38 @@ TEST(Grouping, ANoseLineNearTheRiserGoesToTheTread) {
   EXPECT_EQ(step.tread->segments, 5);
 }
 
+TEST(Grouping, TheFloorsEdgeAlongAStepInTheMiddleOfItsLinesGoesToTheRiser) {
+  // A step 0.6 m wide in a wider floor: lines 0..4 cross the floor only,
+  // line 5 meets the riser's foot (x 1.25, z 0: on both planes), lines 6..8
+  // cross the riser (z 0.04, 0.08, 0.12), lines 9..12 the tread (z 0.15);
+  // the floor goes on beside the step on every line. Line 5's middle piece
+  // is on the floor's edge though not on its first or last line: on the
+  // crease itself, it goes to the plane of fewer lines, the riser.
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k < 13; ++k) {
+    const double x = 1.0 + 0.05 * k;
+    std::vector<Segment3> l;
+    if (k < 5) {
+      l.push_back(seg(k, 100, {x, -1.0, 0.0}, {x, 1.0, 0.0}, 120));
+    } else {
+      const double xm = k == 5 ? 1.25 : k <= 8 ? 1.25 : 1.28 + 0.05 * (k - 9);
+      const double zm = k <= 8 ? 0.04 * (k - 5) : 0.15;
+      l.push_back(seg(k, 100, {x, -1.0, 0.0}, {x, -0.3, 0.0}, 40));
+      l.push_back(seg(k, 140, {xm, -0.3, zm}, {xm, 0.3, zm}, 40));
+      l.push_back(seg(k, 180, {x, 0.3, 0.0}, {x, 1.0, 0.0}, 40));
+    }
+    lines.push_back(l);
+  }
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  const StepPlanes step = stepPlanes(planes, 0.15);
+  EXPECT_EQ(step.floors, 1);
+  ASSERT_EQ(step.risers, 1);
+  ASSERT_EQ(step.treads, 1);
+  EXPECT_EQ(step.riser->segments, 4);
+  EXPECT_EQ(step.tread->segments, 4);
+}
+
 TEST(Grouping, APairOfARiserAndATreadLineIsTakenApart) {
   // The riser's lower line comes in three pieces, none half as long as the
   // upper line, so the upper line first pairs with the tread's first line

@@ -309,7 +309,16 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand) {
     if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3) continue;
     const Region& own = regions_[ri];
     const Segment3& s = segs_[si];
-    if (s.line != own.first_line && s.line != own.last_line) continue;
+    // On its plane's edge: no member of the line before or of the line after
+    // lies beside it (a floor's edge along a step is in the middle of the
+    // floor's lines).
+    const auto beside = [&](int line) {
+      const auto [m0, m1] = membersIn(own, line, line);
+      for (auto mi = m0; mi != m1; ++mi)
+        if (segs_[*mi].first <= s.last && s.first <= segs_[*mi].last) return true;
+      return false;
+    };
+    if (beside(s.line - 1) && beside(s.line + 1)) continue;
     const Eigen::Vector3d c = s.moments.mean();
     // Its distance to its own plane fitted without it (it pulled that plane towards itself).
     Moments3 rest = own.moments;
