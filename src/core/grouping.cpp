@@ -299,27 +299,42 @@ void ScanLineGrouper::removeMember(int region, int si) {
   seg_region_[si] = -1;
 }
 
-bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand) {
+bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vector<char>& moved_once) {
   // A segment on a crease fits the planes on both sides; the first to come
   // took it. Give each boundary segment to the neighbouring plane it lies
   // nearer to, if that plane accepts it.
   bool moved = false;
   for (std::size_t si = 0; si < segs_.size(); ++si) {
     const int ri = seg_region_[si];
-    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3) continue;
+    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3 || moved_once[si]) continue;
     const Region& own = regions_[ri];
     const Segment3& s = segs_[si];
     // On its plane's edge: no member of the line before or of the line after
     // lies beside it (a floor's edge along a step is in the middle of the
     // floor's lines).
-    const auto beside = [&](int line) {
-      const auto [m0, m1] = membersIn(own, line, line);
-      for (auto mi = m0; mi != m1; ++mi)
-        if (segs_[*mi].first <= s.last && s.first <= segs_[*mi].last) return true;
-      return false;
-    };
-    if (beside(s.line - 1) && beside(s.line + 1)) continue;
+    // Members are sorted by index, so by line: its neighbours are next to it.
+    const auto at = std::lower_bound(own.members.begin(), own.members.end(), static_cast<int>(si));
+    bool before = false, after = false;
+    for (auto mi = at; mi != own.members.begin() && !before;) {
+      const Segment3& m = segs_[*--mi];
+      if (m.line < s.line - 1) break;
+      before = m.line == s.line - 1 && m.first <= s.last && s.first <= m.last;
+    }
+    for (auto mi = at + 1; mi < own.members.end() && !after; ++mi) {
+      const Segment3& m = segs_[*mi];
+      if (m.line > s.line + 1) break;
+      after = m.line == s.line + 1 && m.first <= s.last && s.first <= m.last;
+    }
+    if (before && after) continue;
     const Eigen::Vector3d c = s.moments.mean();
+    const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+    // Only a plane within the tolerance can take it: look before refitting its own.
+    const auto reaches = [&](int rj) {
+      const Region& o = regions_[rj];
+      return rj != ri && !o.dead && o.lines >= 2 && s.line >= o.first_line - 1 && s.line <= o.last_line + 1 &&
+             std::abs(o.fit.normal.dot(c) - o.fit.offset) <= tol;
+    };
+    if (std::none_of(cand.begin(), cand.end(), reaches)) continue;
     // Its distance to its own plane fitted without it (it pulled that plane towards itself).
     Moments3 rest = own.moments;
     rest.n -= s.moments.n;
@@ -330,16 +345,14 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand) {
     // On the crease itself (as near one plane as the other, to a quarter of
     // the tolerance) it goes to the plane of fewer lines, which it constrains
     // more (a box's front face below its top).
-    const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
     int best = -1;
     double best_d = d_own;
     for (int rj : cand) {
+      if (!reaches(rj)) continue;
       const Region& o = regions_[rj];
-      if (rj == ri || o.dead || o.lines < 2) continue;
-      if (s.line < o.first_line - 1 || s.line > o.last_line + 1) continue;
       const double d = std::abs(o.fit.normal.dot(c) - o.fit.offset);
       const bool tie = best < 0 && o.lines + 1 < own.lines && d < d_own + 0.25 * tol;
-      if ((d >= best_d && !tie) || d > tol) continue;
+      if (d >= best_d && !tie) continue;
       bool overlap = false;
       const auto [m0, m1] = membersIn(o, s.line - 1, s.line + 1);
       for (auto mi = m0; mi != m1 && !overlap; ++mi) overlap = segs_[*mi].first <= s.last && s.first <= segs_[*mi].last;
@@ -349,6 +362,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand) {
       }
     }
     if (best < 0) continue;
+    moved_once[si] = 1;  // once: refitted without it, the plane it left would call it back
     removeMember(ri, static_cast<int>(si));
     addMember(best, static_cast<int>(si));
     moved = true;
@@ -468,8 +482,9 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
   collect();
   // Segments on creases, again while segments move (a move refits both
   // planes), at most a few times.
+  std::vector<char> moved_once(segs_.size(), 0);
   for (int pass = 0; pass < 3; ++pass)
-    if (!moveCreaseSegments(cand)) break;
+    if (!moveCreaseSegments(cand, moved_once)) break;
 
   // Late joins: pieces of a line that the split cut short (or that came before
   // their plane was seeded) join a plane of their neighbourhood that they fit.

@@ -120,8 +120,8 @@ class ScanLineGrouper {
   void addMember(int region, int segment);     // keeps members sorted, refits
   void removeMember(int region, int segment);  // refits
   /// One pass giving segments on a crease to the neighbouring plane they lie
-  /// nearer to; true when one moved.
-  bool moveCreaseSegments(const std::vector<int>& cand);
+  /// nearer to (each segment moves once); true when one moved.
+  bool moveCreaseSegments(const std::vector<int>& cand, std::vector<char>& moved_once);
   void buildPolygon(const Region& r, Plane& out) const;
 
   GroupingParams p_;
