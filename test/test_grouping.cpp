@@ -308,6 +308,18 @@ TEST(JointBuffer, InterpolatesAndRefusesGaps) {
   EXPECT_NEAR(q, 0.05, 1e-12);
   EXPECT_FALSE(b.at(0.05, q));  // inside the gap
   EXPECT_FALSE(b.at(0.2, q));   // after the last
+  // Many beams at once, one interval at a time: the same as one by one.
+  std::vector<double> qs;
+  ASSERT_TRUE(b.sample(0.001, 0.0005, 17, qs));
+  for (int i = 0; i < 17; ++i) {
+    ASSERT_TRUE(b.at(0.001 + i * 0.0005, q));
+    EXPECT_NEAR(qs[i], q, 1e-12) << i;
+  }
+  EXPECT_FALSE(b.sample(0.001, 0.0005, 200, qs));  // reaches into the gap
+  // A time increment so small that beam counts overflow an integer (found by
+  // fuzz_grouping under UBSan): every beam at the first one's time.
+  ASSERT_TRUE(b.sample(0.002, 1e-300, 3, qs));
+  for (double v : qs) EXPECT_NEAR(v, 0.02, 1e-12);
 }
 
 namespace {
