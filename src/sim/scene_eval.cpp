@@ -35,7 +35,7 @@ struct LineTruth {
 
 SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const core::SweepResult& sw,
                 const std::map<double, LineTruth>& truth, const std::map<double, double>& split_time,
-                const SceneEvalOptions& o, double latency) {
+                const SceneEvalOptions& o, double latency, core::HeightMapGrid& grid) {
   SweepEval e;
   e.lines = static_cast<int>(sw.lines.size());
   // Points judged: valid returns within the radius; their true face and detected plane.
@@ -188,8 +188,8 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
     ++e.noise;
   }
 
-  // Height map against the true one, within the radius.
-  core::HeightMapGrid grid;
+  // Height map against the true one, within the radius (the grid is kept
+  // from sweep to sweep, as the grouper nodelet keeps it).
   const double t0 = cpuNow();
   core::buildHeightMap(sw, o.heightmap, grid);
   latency += cpuNow() - t0;
@@ -236,6 +236,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   std::map<double, LineTruth> truth;
   std::map<double, double> split_time;
   std::vector<SweepEval> out;
+  core::HeightMapGrid grid;
   const core::HeightMapParams& hp = o.heightmap;
   const std::vector<float> truth_h = trueHeightMap(scene, hp.origin_x, hp.origin_y, hp.resolution, hp.width, hp.height);
   double next_joint = 0.0, next_scan = 0.0;
@@ -271,7 +272,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
     }
     core::SweepResult done;
     while (assembler.poll(t, done)) {
-      out.push_back(judge(scene, truth_h, done, truth, split_time, o, done.finish_seconds));
+      out.push_back(judge(scene, truth_h, done, truth, split_time, o, done.finish_seconds, grid));
       // Forget the truth of lines before this sweep.
       truth.erase(truth.begin(), truth.lower_bound(done.start));
     }
