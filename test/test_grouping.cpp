@@ -224,6 +224,22 @@ TEST(Grouping, TheCloseLinesOfASlowSweepMakeTheSamePlanes) {
   EXPECT_EQ(step.tread->segments, 30);
 }
 
+TEST(Grouping, ALineCutInPiecesPairsByItsLongestPiece) {
+  // A riser x = 1.4 crossed by two lines. The split cut the second line at a
+  // noise outlier: a short piece first (15 points, 2 cm off the riser) and
+  // the rest (85 points, on it). Paired by the short piece, the plane would
+  // tilt 22 degrees and the long piece would not fit it; the long piece
+  // pairs first.
+  std::vector<std::vector<Segment3>> lines{
+      {seg(0, 100, {1.4, -0.6, 0.05}, {1.4, 0.6, 0.05}, 100)},
+      {seg(1, 100, {1.42, -0.6, 0.10}, {1.42, -0.46, 0.10}, 15), seg(1, 115, {1.4, -0.45, 0.10}, {1.4, 0.6, 0.10}, 85)}};
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_EQ(planes[0].points, 185);
+  EXPECT_NEAR(std::abs(planes[0].fit.normal.x()), 1.0, 1e-9);
+}
+
 TEST(Grouping, APlaneWithAHole) {
   // Lines 3..6 have a gap between y = -0.2 and 0.2 (beams 160..199): a hole of 4 x 5 cm gaps... 0.15 m x 0.4 m.
   std::vector<std::vector<Segment3>> lines;

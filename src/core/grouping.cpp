@@ -388,10 +388,17 @@ void ScanLineGrouper::absorb(int into, int from) {
 void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
   if (line.empty()) return;
   const int l = line.front().line;
-  for (const Segment3& s : line) {
-    const int idx = static_cast<int>(segs_.size());
-    segs_.push_back(s);
-    seg_region_.push_back(-1);
+  // Kept in beam order; matched longest first: a line that the split cut in
+  // a long and a short piece pairs by the long one, whose plane is then
+  // well fixed for the short one (the other way round it is not).
+  const int first_idx = static_cast<int>(segs_.size());
+  segs_.insert(segs_.end(), line.begin(), line.end());
+  seg_region_.resize(segs_.size(), -1);
+  order_.resize(line.size());
+  for (std::size_t k = 0; k < line.size(); ++k) order_[k] = first_idx + static_cast<int>(k);
+  std::stable_sort(order_.begin(), order_.end(), [&](int a, int b) { return segs_[a].moments.n > segs_[b].moments.n; });
+  for (const int idx : order_) {
+    const Segment3& s = segs_[idx];
     if (s.moments.n < p_.min_points) continue;  // too few points to judge: left out
     std::vector<std::pair<double, int>> matches;
     for (int ri : open_) {
@@ -421,7 +428,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
     const int best = matches[0].second;
     Region& r = regions_[best];
     r.moments += s.moments;
-    r.members.push_back(idx);
+    r.members.insert(std::upper_bound(r.members.begin(), r.members.end(), idx), idx);  // sorted: lines in order
     if (l > r.last_line) ++r.lines;
     r.last_line = l;
     r.fit = fitPlane(r.moments);

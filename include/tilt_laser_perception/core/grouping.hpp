@@ -131,6 +131,7 @@ class ScanLineGrouper {
   std::vector<Region> regions_;
   std::vector<int> open_;  // regions still growing
   std::vector<int> seg_plane_;
+  std::vector<int> order_;  // addLine's matching order
 };
 
 }  // namespace core
