@@ -241,9 +241,14 @@ bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score)
 void ScanLineGrouper::settlePairs() {
   // A pair whose segments a plane of three lines or more explains is two
   // lines of different surfaces (a riser's and a tread's): take it apart.
-  std::vector<int> planes;  // of three lines or more
-  for (std::size_t ri = 0; ri < regions_.size(); ++ri)
-    if (!regions_[ri].dead && regions_[ri].lines >= 3) planes.push_back(static_cast<int>(ri));
+  // So is a pair whose two lines each fit a different plane of two lines
+  // (it straddles the crease between them).
+  std::vector<int> planes, pairs_too;  // of three lines or more; of two or more
+  for (std::size_t ri = 0; ri < regions_.size(); ++ri) {
+    if (regions_[ri].dead || regions_[ri].lines < 2) continue;
+    pairs_too.push_back(static_cast<int>(ri));
+    if (regions_[ri].lines >= 3) planes.push_back(static_cast<int>(ri));
+  }
   const std::size_t n_regions = regions_.size();
   for (std::size_t ri = 0; ri < n_regions; ++ri) {
     if (regions_[ri].dead || regions_[ri].lines != 2) continue;
@@ -254,7 +259,15 @@ void ScanLineGrouper::settlePairs() {
       to[k] = bestFit(segs_[members[k]], planes, static_cast<int>(ri), 3);
       explained = explained || to[k] >= 0;
     }
-    if (!explained) continue;
+    if (!explained) {
+      bool all = true, apart = false;
+      for (std::size_t k = 0; k < members.size() && all; ++k) {
+        to[k] = bestFit(segs_[members[k]], pairs_too, static_cast<int>(ri), 2);
+        all = to[k] >= 0;
+        apart = apart || (all && to[k] != to[0]);
+      }
+      if (!all || !apart) continue;
+    }
     regions_[ri].dead = true;
     regions_[ri].members.clear();
     for (std::size_t k = 0; k < members.size(); ++k) {
