@@ -92,10 +92,14 @@ def test_replayed_planes_equal_the_live_ones():
             stop(replay)
     replayed = planes_by_stamp(os.path.join(work, "replay.bag"), "/planes")
     common = sorted(set(live_planes) & set(replayed))
-    # the recording began after the first live sweep had; compare from the second common sweep on
-    compared = common[1:]
+    # The recording began after the first live sweep had, and it stopped
+    # within the last one: the joint states and transforms after the bag's
+    # end are missing, so the replay may finish that sweep without its last
+    # line (seen once in CI: 32689 points replayed against 33561 live, every
+    # earlier sweep equal). Compare the sweeps in between.
+    compared = common[1:-1]
     print(f"live sweeps {len(live_planes)}, replayed {len(replayed)}, compared {len(compared)}")
-    assert len(compared) >= 8, f"live {len(live_planes)}, replayed {len(replayed)}, common {len(common)}"
+    assert len(compared) >= 7, f"live {len(live_planes)}, replayed {len(replayed)}, common {len(common)}"
     # every replayed sweep after the first has its live twin
     assert len(replayed) - len(common) <= 1, "replayed sweeps with no live twin"
     diffs = {t: same_planes(live_planes[t], replayed[t]) for t in compared}
