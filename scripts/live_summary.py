@@ -113,18 +113,22 @@ def main():
                 if kind(p) != "horizontal" or p.area < 0.05:
                     continue
                 lv = min(levels, key=lambda v: abs(v - p.centroid.z))
-                found[lv].append(p.centroid.z - lv)
+                found[lv].append((p.centroid.z - lv, s.header.stamp.to_sec(), p))
         for lv in levels:
             errs = found[lv]
             if not errs:
                 out.append(f"  level {lv:5.3f} m: no plane  FAIL")
                 status = 1
                 continue
-            worst = max(errs, key=abs)
+            worst, stamp, p = max(errs, key=lambda e: abs(e[0]))
             ok = abs(worst) <= 0.01
             status |= 0 if ok else 1
             out.append(f"  level {lv:5.3f} m: {len(errs)} planes over {len(sweeps)} sweeps, "
                        f"worst error {1000 * worst:+5.1f} mm  {'ok' if ok else 'FAIL'}")
+            if not ok:  # which plane, so that the sweep can be looked at
+                tilt = math.degrees(math.acos(min(1.0, abs(p.normal.z))))
+                out.append(f"    sweep {stamp:.3f}, plane {p.id}: area {p.area:.2f} m^2, centroid ({p.centroid.x:.2f}, "
+                           f"{p.centroid.y:.2f}, {p.centroid.z:.3f}), tilt {tilt:.1f} deg, {p.segment_count} segments")
     out.append("time per stage (the nodelets' diagnostics):")
     for name, keys in (("scan splitter", ("split time mean [us]", "split time max [us]", "scans dropped")),
                        ("sweep grouper", ("grouping as lines came [ms] (last sweep)",

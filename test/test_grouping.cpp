@@ -283,6 +283,28 @@ TEST(Grouping, ACornerIsWhereItsRayMeetsThePlane) {
   }
 }
 
+TEST(Grouping, ACornerStaysPutWhereItsRayGrazesThePlane) {
+  // The sensor 0.243 m above the floor sees line 5's end (1.25, 1.0) at 8.6
+  // degrees; that point lies 1 cm under the floor. Along its ray the floor is
+  // 6.6 cm away, more than range noise and mixed pixels reach (twice the
+  // 3 cm threshold): the corner is put straight down onto the plane.
+  const Eigen::Vector3d sensor(0, 0, 0.243), low(1.25, 1.0, -0.01);
+  auto lines = floorLines(10, 1.0, 0.05, 0.0, -1.0, 1.0);
+  for (auto& l : lines)
+    for (auto& s : l) s.origin = sensor;
+  lines[5][0].end = low;
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 1u);
+  int found = 0;
+  for (const auto& v : planes[0].boundary)
+    if (std::abs(v.x() - 1.25) < 1e-6 && v.y() > 0.5) {
+      EXPECT_NEAR(v.y(), 1.0, 1e-9);
+      ++found;
+    }
+  EXPECT_EQ(found, 1);
+}
+
 TEST(Grouping, AnLShapedFloorAroundABox) {
   // The floor's right part is hidden by a box on lines 4..9: the floor's lines end early there.
   std::vector<std::vector<Segment3>> lines;

@@ -347,14 +347,29 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
       return rj != ri && !o.dead && o.lines >= 2 && s.line >= o.first_line - 1 && s.line <= o.last_line + 1 &&
              std::abs(o.fit.normal.dot(c) - o.fit.offset) <= tol;
     };
-    if (std::none_of(cand.begin(), cand.end(), reaches)) continue;
-    // Its distance to its own plane fitted without it (it pulled that plane towards itself).
-    Moments3 rest = own.moments;
-    rest.n -= s.moments.n;
-    rest.s -= s.moments.s;
-    rest.ss -= s.moments.ss;
-    const PlaneFit own_fit = fitPlane(rest);
-    const double d_own = std::abs(own_fit.normal.dot(c) - own_fit.offset);
+    // Its distance to its own plane fitted without it (it pulled that plane
+    // towards itself): beyond the tolerance, it does not belong there (a
+    // riser's foot line that tilted the tread it joined) and leaves.
+    const auto rest_distance = [&] {
+      Moments3 rest = own.moments;
+      rest.n -= s.moments.n;
+      rest.s -= s.moments.s;
+      rest.ss -= s.moments.ss;
+      const PlaneFit f = fitPlane(rest);
+      return std::abs(f.normal.dot(c) - f.offset);
+    };
+    const auto leave = [&] {
+      moved_once[si] = 1;
+      removeMember(ri, static_cast<int>(si));
+      newRegion(static_cast<int>(si));
+      moved = true;
+    };
+    const bool spare = own.lines >= 3 && own.members.size() >= 4;
+    if (std::none_of(cand.begin(), cand.end(), reaches)) {
+      if (spare && rest_distance() > tol) leave();
+      continue;
+    }
+    const double d_own = rest_distance();
     // On the crease itself (as near one plane as the other, to a quarter of
     // the tolerance) it goes to the plane of fewer lines, which it constrains
     // more (a box's front face below its top).
@@ -374,7 +389,10 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
         best_d = d;
       }
     }
-    if (best < 0) continue;
+    if (best < 0) {
+      if (spare && d_own > tol) leave();
+      continue;
+    }
     moved_once[si] = 1;  // once: refitted without it, the plane it left would call it back
     removeMember(ri, static_cast<int>(si));
     addMember(best, static_cast<int>(si));
@@ -553,7 +571,10 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
     const double along = f.normal.dot(ray);
     if (std::isfinite(along) && std::abs(along) >= kMinRayIncidence * ray.norm()) {
       const double t = dist / along;  // x - t ray is on the plane
-      if (std::abs(t) < 0.5) return Eigen::Vector3d(x - t * ray);
+      // No farther along the ray than range noise and a mixed pixel reach
+      // (on a plane seen at a grazing angle, or a wrong one, it would fly off).
+      const double r = ray.norm();
+      if (std::abs(t) * r <= 2.0 * p_.threshold(r)) return Eigen::Vector3d(x - t * ray);
     }
     return Eigen::Vector3d(x - dist * f.normal);
   };
