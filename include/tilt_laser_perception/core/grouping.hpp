@@ -119,8 +119,10 @@ class ScanLineGrouper {
   void absorb(int into, int from);
   void addMember(int region, int segment);     // keeps members sorted, refits
   void removeMember(int region, int segment);  // refits
-  /// One pass giving segments on a crease to the neighbouring plane they lie
-  /// nearer to (each segment moves once); true when one moved.
+  /// One pass over the segments on their planes' edges: each goes to a
+  /// neighbouring plane it lies nearer to, or, farther than the tolerance
+  /// from its own plane fitted without it, leaves that plane (each segment
+  /// moves once); true when one moved.
   bool moveCreaseSegments(const std::vector<int>& cand, std::vector<char>& moved_once);
   void buildPolygon(const Region& r, Plane& out) const;
 
