@@ -27,6 +27,23 @@ double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) 
   return 0.5 * std::abs(a);
 }
 
+/// Two parallel lines share any plane through both, so segments of two lines
+/// seed a plane only side by side: one overlaps the other in beam index by
+/// half its own length or more. The fraction of the longer one overlapped,
+/// or -1 when they are not side by side.
+double sideBySide(const Segment3& a, const Segment3& b) {
+  const int ov = std::min(a.last, b.last) - std::max(a.first, b.first) + 1;
+  const int la = a.last - a.first + 1, lb = b.last - b.first + 1;
+  if (ov < 0.5 * std::min(la, lb)) return -1.0;
+  return static_cast<double>(ov) / std::max(la, lb);
+}
+
+/// A seed's score, lowest best: the next line, overlapping the whole of the
+/// longer segment, coplanar (rms against the threshold `thr`).
+double seedScore(int line_gap, double overlap, double rms, double thr) {
+  return 2.0 * (line_gap - 1) + (1.0 - overlap) + rms / thr;
+}
+
 template <class Segs>
 int countLines(const std::vector<int>& members, const Segs& segs) {
   int n = 0, last = -1;
@@ -144,24 +161,20 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) co
   // a normal (a slow sweep, a tilt reversal): s must lie side by side with a
   // member of the lines before, and all of them on one plane.
   if (r.members.size() == 1) return segs_[r.members[0]].line < s.line && pairs(segs_[r.members[0]], s, score);
-  int ov = -1, longer = 0, line = 0;
+  double best = 1e300;  // seed score without the rms term
   for (auto it = m0; it != m1; ++it) {
     const Segment3& m = segs_[*it];
     if (m.line >= s.line) continue;
-    const int o = std::min(m.last, s.last) - std::max(m.first, s.first) + 1;
-    if (o >= 0.5 * std::min(m.last - m.first + 1, s.last - s.first + 1) && o > ov) {
-      ov = o;
-      longer = std::max(m.last - m.first + 1, s.last - s.first + 1);
-      line = m.line;
-    }
+    const double ov = sideBySide(m, s);
+    if (ov >= 0.0) best = std::min(best, seedScore(s.line - m.line, ov, 0.0, 1.0));
   }
-  if (ov < 0) return false;
+  if (best > 1e299) return false;
   Moments3 m = r.moments;
   m += s.moments;
   const PlaneFit f = fitPlane(m);
   const double half = 0.5 * thr;
   if (f.rms > half) return false;
-  score = 2.0 * (s.line - line - 1) + (1.0 - static_cast<double>(ov) / longer) + f.rms / half;
+  score = best + f.rms / half;
   return true;
 }
 
@@ -222,19 +235,14 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
 }
 
 bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score) const {
-  // Two parallel lines always share a plane, so they must lie side by side:
-  // one overlaps the other in beam index by half its own length or more.
-  const int ov = std::min(a.last, b.last) - std::max(a.first, b.first) + 1;
-  const int longer = std::max(a.last - a.first + 1, b.last - b.first + 1);
-  if (ov < 0.5 * std::min(a.last - a.first + 1, b.last - b.first + 1)) return false;
-  if (!near(a, b, p_.seed_gap + 0.05 * b.range)) return false;
+  const double ov = sideBySide(a, b);
+  if (ov < 0.0 || !near(a, b, p_.seed_gap + 0.05 * b.range)) return false;
   Moments3 m = a.moments;
   m += b.moments;
   const PlaneFit f = fitPlane(m);
   const double thr = 0.5 * p_.threshold(b.range);
   if (f.rms > thr) return false;
-  // Best: the next line, overlapping the whole of the longer segment, coplanar.
-  score = 2.0 * (std::abs(b.line - a.line) - 1) + (1.0 - static_cast<double>(ov) / longer) + f.rms / thr;
+  score = seedScore(std::abs(b.line - a.line), ov, f.rms, thr);
   return true;
 }
 

@@ -36,12 +36,13 @@ bool JointBuffer::sample(double t0, double dt, std::size_t n, std::vector<double
     if (b.first < t) continue;
     if (b.first - a.first > max_gap_) return false;
     const double slope = (b.second - a.second) / (b.first - a.first);
-    // Beams up to b's time (the last beam is inside the buffer, checked above;
-    // the count stays in double until it is known to fit: dt may be tiny).
-    std::size_t end = n;
-    const double k = std::floor((b.first - t0) / dt) + 1.0;
-    if (dt > 0.0 && k < static_cast<double>(n)) end = k > static_cast<double>(i) ? static_cast<std::size_t>(k) : i;
-    for (; i < end; ++i) q[i] = a.second + (t0 + i * dt - a.first) * slope;
+    // Beams up to b's time, compared as at() would (a count from a division
+    // could round a beam at b's own time out of the last interval).
+    for (; i < n; ++i) {
+      const double ti = t0 + i * dt;
+      if (ti > b.first) break;
+      q[i] = a.second + (ti - a.first) * slope;
+    }
   }
   return true;
 }
