@@ -240,6 +240,28 @@ TEST(Grouping, ALineCutInPiecesPairsByItsLongestPiece) {
   EXPECT_NEAR(std::abs(planes[0].fit.normal.x()), 1.0, 1e-9);
 }
 
+TEST(Grouping, ARiserLinePairsWithTheNextRiserLineNotWithAShortPieceBeforeIt) {
+  // A riser x = 1.4 crossed by two lines (z 0.05, 0.10). The line before
+  // left a short piece at the riser's foot, 3 cm behind it (12 points, under
+  // the first riser line's first 12 beams): side by side with that line,
+  // and coplanar within the seed's rms, but a plane through both tilts, and
+  // the second riser line would not fit it. A piece beside less than 30 %
+  // of a line does not seed with it; the two riser lines pair.
+  std::vector<std::vector<Segment3>> lines{
+      {seg(0, 100, {1.43, -0.6, 0.0}, {1.43, -0.48, 0.0}, 12)},
+      {seg(1, 100, {1.4, -0.6, 0.05}, {1.4, 0.6, 0.05}, 100)},
+      {seg(2, 100, {1.4, -0.6, 0.10}, {1.4, 0.6, 0.10}, 100)}};
+  for (int k = 0; k < 4; ++k) lines.push_back({seg(3 + k, 100, {1.45 + 0.06 * k, -0.6, 0.15}, {1.45 + 0.06 * k, 0.6, 0.15})});
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  const StepPlanes step = stepPlanes(planes, 0.15);
+  ASSERT_EQ(step.risers, 1);
+  ASSERT_EQ(step.treads, 1);
+  EXPECT_EQ(step.riser->points, 200);
+  EXPECT_NEAR(step.riser->fit.offset * step.riser->fit.normal.x(), 1.4, 1e-9);
+  EXPECT_EQ(step.tread->segments, 4);
+}
+
 TEST(Grouping, APlaneWithAHole) {
   // Lines 3..6 have a gap between y = -0.2 and 0.2 (beams 160..199): a hole of 4 x 5 cm gaps... 0.15 m x 0.4 m.
   std::vector<std::vector<Segment3>> lines;

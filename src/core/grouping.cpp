@@ -12,6 +12,12 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 /// A ray meeting a plane at less than this sine of an angle grazes it.
 constexpr double kMinRayIncidence = 0.1;
+/// Two segments seed a plane only if the shorter lies beside this much of
+/// the longer at least: a short piece at a long line's end (a tread's piece
+/// under a riser's first line) tilts the plane they span, and the long line
+/// does better to wait for the next line. (The stairs: 13.71 -> 13.89 of 14
+/// faces over 20 seeds; 0.2: 13.85, 0.45: 13.77.)
+constexpr double kMinSeedOverlap = 0.3;
 
 /// Area of a polygon given in the plane (u, v) coordinates of a fit.
 double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
@@ -236,7 +242,7 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
 
 bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score) const {
   const double ov = sideBySide(a, b);
-  if (ov < 0.0 || !near(a, b, p_.seed_gap + 0.05 * b.range)) return false;
+  if (ov < kMinSeedOverlap || !near(a, b, p_.seed_gap + 0.05 * b.range)) return false;
   Moments3 m = a.moments;
   m += b.moments;
   const PlaneFit f = fitPlane(m);

@@ -104,8 +104,8 @@ class ScanLineGrouper {
   /// that s fits best; it must overlap a member of the lines near s. -1 for none.
   int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines) const;
   /// Whether two segments of different lines seed a plane (side by side,
-  /// near, coplanar); a score, lowest for the next line, a whole overlap
-  /// and a small rms.
+  /// the shorter beside 30 % of the longer or more, near, coplanar); a
+  /// score, lowest for the next line, a whole overlap and a small rms.
   bool pairs(const Segment3& a, const Segment3& b, double& score) const;
   /// A region of one segment.
   int newRegion(int segment);
