@@ -327,6 +327,81 @@ TEST(Grouping, ACornerStaysPutWhereItsRayGrazesThePlane) {
   EXPECT_EQ(found, 1);
 }
 
+TEST(Grouping, ALineAlongARisersFootIsCutWhereItsRaysMeetTheRiser) {
+  // Rays from (0, 0, 1.5) towards the floor at x = aim, beams y = -0.6 ..
+  // 0.6 (121). A step 0.6 m wide (|y| <= 0.3): riser x = 1.5 up to 0.15,
+  // tread beyond. The line aimed at x = 1.52 meets the riser 2 cm above its
+  // foot: too gentle a bend for the split, one segment of floor and riser
+  // points that the floor takes. Its rays meet the riser's plane before the
+  // floor's (a concave crease): beams 30..90 go to the riser.
+  const Eigen::Vector3d o(0, 0, 1.5);
+  const auto hit = [&](double aim, double y) {
+    const Eigen::Vector3d d = Eigen::Vector3d(aim, y, 0.0) - o;
+    Eigen::Vector3d p = o + d;  // on the floor
+    if (std::abs(y) < 0.305 && p.x() >= 1.5) {  // beams 30..90
+      const Eigen::Vector3d r = o + d * ((1.5 - o.x()) / d.x());
+      p = r.z() <= 0.15 ? r : Eigen::Vector3d(o + d * ((o.z() - 0.15) / o.z()));
+    }
+    return p;
+  };
+  const std::vector<double> aims{1.30, 1.35, 1.40, 1.45, 1.52, 1.57, 1.62, 1.72, 1.77, 1.82, 1.87};
+  std::vector<std::vector<Eigen::Vector3f>> points;
+  std::vector<std::vector<Segment3>> lines;
+  for (std::size_t k = 0; k < aims.size(); ++k) {
+    std::vector<Eigen::Vector3f> pts;
+    std::vector<float> ranges;
+    for (int b = 0; b <= 120; ++b) {
+      pts.push_back(hit(aims[k], -0.6 + 0.01 * b).cast<float>());
+      ranges.push_back(static_cast<float>((pts.back().cast<double>() - o).norm()));
+    }
+    // The split: one segment where the line bends less than its threshold.
+    std::vector<std::pair<int, int>> spans{{0, 120}};
+    if (aims[k] > 1.55) spans = {{0, 29}, {30, 90}, {91, 120}};
+    std::vector<Segment3> l;
+    for (const auto& [a, b] : spans) {
+      Segment3 s;
+      EXPECT_TRUE(makeSegment3(pts, ranges, static_cast<int>(k), a, b, s));
+      s.origin = o;
+      l.push_back(s);
+    }
+    points.push_back(pts);
+    lines.push_back(l);
+  }
+  for (const bool with_points : {false, true}) {
+    ScanLineGrouper g;
+    g.reset(o);
+    for (const auto& l : lines) g.addLine(l);
+    std::vector<Plane> planes;
+    if (with_points)
+      g.finish(planes, [&](int line) { return &points[line]; });
+    else
+      g.finish(planes);
+    ASSERT_EQ(planes.size(), 3u);
+    const Plane* riser = nullptr;
+    const Plane* floor = nullptr;
+    for (const auto& p : planes) {
+      if (std::abs(p.fit.normal.x()) > 0.99) riser = &p;
+      if (p.points > 500) floor = &p;
+    }
+    ASSERT_NE(riser, nullptr);
+    ASSERT_NE(floor, nullptr);
+    EXPECT_NEAR(riser->fit.offset * riser->fit.normal.x(), 1.5, 1e-4);
+    EXPECT_EQ(riser->points, with_points ? 3 * 61 : 2 * 61);
+    if (!with_points) continue;
+    EXPECT_NEAR(floor->fit.offset, 0.0, 1e-5);  // no longer lifted by the riser's foot (3 mm)
+    // The cut piece is exactly the riser's beams of line 4.
+    int pieces = 0;
+    for (std::size_t si = 0; si < g.segments().size(); ++si) {
+      const Segment3& s = g.segments()[si];
+      if (s.line != 4) continue;
+      ++pieces;
+      const bool on_riser = g.segmentPlane()[si] == riser->id;
+      EXPECT_EQ(on_riser, s.first == 30 && s.last == 90) << s.first << ".." << s.last;
+    }
+    EXPECT_EQ(pieces, 3);
+  }
+}
+
 TEST(Grouping, AnLShapedFloorAroundABox) {
   // The floor's right part is hidden by a box on lines 4..9: the floor's lines end early there.
   std::vector<std::vector<Segment3>> lines;

@@ -18,6 +18,9 @@ constexpr double kMinRayIncidence = 0.1;
 /// does better to wait for the next line. (The stairs: 13.71 -> 13.89 of 14
 /// faces over 20 seeds; 0.2: 13.85, 0.45: 13.77.)
 constexpr double kMinSeedOverlap = 0.3;
+/// Where two planes meet a beam's ray within this of each other, the ray
+/// does not tell which surface it hit [m].
+constexpr double kCreaseMargin = 0.01;
 
 /// Area of a polygon given in the plane (u, v) coordinates of a fit.
 double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
@@ -72,10 +75,10 @@ bool near(const Segment3& a, const Segment3& b, double limit) {
       if ((x - y).squaredNorm() <= l2) return true;
   return false;
 }
-}  // namespace
 
-template <class Point, class Range>
-bool makeSegment3(const std::vector<Point>& pts, const std::vector<Range>& ranges, int line, int first, int last,
+/// A segment of pts[first..last] (NaN points skipped); rangeOf(i) is point i's range.
+template <class Point, class RangeOf>
+bool fillSegment3(const std::vector<Point>& pts, const RangeOf& rangeOf, int line, int first, int last,
                   Segment3& s) {
   s = Segment3();
   s.line = line;
@@ -87,7 +90,7 @@ bool makeSegment3(const std::vector<Point>& pts, const std::vector<Range>& range
     if (!std::isfinite(pts[i].x())) continue;
     const Eigen::Vector3d p = pts[i].template cast<double>();
     n += 1.0;
-    sum_r += ranges[i];
+    sum_r += rangeOf(i);
     x += p.x();
     y += p.y();
     z += p.z();
@@ -112,6 +115,13 @@ bool makeSegment3(const std::vector<Point>& pts, const std::vector<Range>& range
   s.start = c + d * d.dot(pa - c);
   s.end = c + d * d.dot(pb - c);
   return true;
+}
+}  // namespace
+
+template <class Point, class Range>
+bool makeSegment3(const std::vector<Point>& pts, const std::vector<Range>& ranges, int line, int first, int last,
+                  Segment3& s) {
+  return fillSegment3(pts, [&](int i) { return static_cast<double>(ranges[i]); }, line, first, last, s);
 }
 template bool makeSegment3(const std::vector<Eigen::Vector3d>&, const std::vector<double>&, int, int, int, Segment3&);
 template bool makeSegment3(const std::vector<Eigen::Vector3f>&, const std::vector<float>&, int, int, int, Segment3&);
@@ -316,9 +326,7 @@ void ScanLineGrouper::removeMember(int region, int si) {
   Region& r = regions_[region];
   const Moments3& m = segs_[si].moments;
   r.members.erase(std::remove(r.members.begin(), r.members.end(), si), r.members.end());
-  r.moments.n -= m.n;
-  r.moments.s -= m.s;
-  r.moments.ss -= m.ss;
+  r.moments -= m;
   r.fit = fitPlane(r.moments);
   r.first_line = segs_[r.members.front()].line;
   r.last_line = segs_[r.members.back()].line;
@@ -366,9 +374,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     // riser's foot line that tilted the tread it joined) and leaves.
     const auto rest_distance = [&] {
       Moments3 rest = own.moments;
-      rest.n -= s.moments.n;
-      rest.s -= s.moments.s;
-      rest.ss -= s.moments.ss;
+      rest -= s.moments;
       const PlaneFit f = fitPlane(rest);
       return std::abs(f.normal.dot(c) - f.offset);
     };
@@ -489,7 +495,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
               open_.end());
 }
 
-void ScanLineGrouper::finish(std::vector<Plane>& planes) {
+void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& points) {
   planes.clear();
   open_.clear();
   // The regions that can be planes: alive, two segments or more. (Most
@@ -553,6 +559,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     }
     addMember(best, static_cast<int>(si));
   }
+  if (points) cutAtCreases(cand, points);
 
   seg_plane_.assign(segs_.size(), -1);
   for (const Region& r : regions_) {
@@ -571,6 +578,185 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes) {
     p.id = static_cast<int>(planes.size());
     for (int m : p.members) seg_plane_[m] = p.id;
     planes.push_back(std::move(p));
+  }
+}
+
+void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoints& points) {
+  struct Cut {
+    int seg, first, last, to;
+  };
+  std::vector<Cut> cuts;
+  // The planes that could take a piece, at hand: their lines, beams and fit.
+  struct Other {
+    int region, line_lo, line_hi, beam_lo, beam_hi;
+    Eigen::Vector3d normal;
+    double offset;
+  };
+  std::vector<Other> others;
+  for (const int rj : cand) {
+    const Region& o = regions_[rj];
+    if (o.dead || o.lines < 2) continue;
+    Other x{rj, o.first_line - p_.max_line_gap, o.last_line + p_.max_line_gap, segs_[o.members[0]].first,
+            segs_[o.members[0]].last, o.fit.normal, o.fit.offset};
+    for (const int m : o.members) {
+      x.beam_lo = std::min(x.beam_lo, segs_[m].first - p_.beam_slack);
+      x.beam_hi = std::max(x.beam_hi, segs_[m].last + p_.beam_slack);
+    }
+    others.push_back(x);
+  }
+  for (std::size_t si = 0; si < segs_.size(); ++si) {
+    const int ri = seg_region_[si];
+    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 2) continue;
+    const Segment3& s = segs_[si];
+    if (s.moments.n < 2 * p_.min_points || !s.origin.allFinite()) continue;
+    const Region& own = regions_[ri];
+    const std::vector<Eigen::Vector3f>* pts = nullptr;
+    PlaneFit fa;  // its own plane, without it if the rest spans a plane
+    const double thr = p_.threshold(s.range);
+    Cut best{-1, 0, 0, -1};
+    double best_votes = p_.min_points - 0.5;
+    for (const Other& x : others) {
+      if (x.region == ri || s.line < x.line_lo || s.line > x.line_hi || s.last < x.beam_lo || s.first > x.beam_hi)
+        continue;
+      // A straight segment whose both ends lie on one side of that plane,
+      // well beyond the threshold, has no point near it.
+      const double d0 = x.normal.dot(s.start) - x.offset, d1 = x.normal.dot(s.end) - x.offset;
+      if (d0 * d1 > 0.0 && std::min(std::abs(d0), std::abs(d1)) > 2.0 * thr) continue;
+      const int rj = x.region;
+      const Region& o = regions_[rj];
+      // Only beside that plane's members on the lines near (a plane goes on
+      // forever; the surface does not).
+      int lo = s.last + 1, hi = s.first - 1;
+      const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+      for (auto mi = m0; mi != m1; ++mi) {
+        const Segment3& m = segs_[*mi];
+        if (m.first > s.last + p_.beam_slack || s.first > m.last + p_.beam_slack) continue;
+        lo = std::min(lo, m.first);
+        hi = std::max(hi, m.last);
+      }
+      lo = std::max(lo, s.first);
+      hi = std::min(hi, s.last);
+      if (hi - lo + 1 < p_.min_points) continue;
+      // The crease between the planes: convex (a box's edge) when each
+      // plane's members near it lie behind the other plane, as seen from the
+      // sensor; concave (a riser's foot) when in front. Not clear by the
+      // tolerance: no crease to cut at.
+      Moments3 near_own, near_other;
+      const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+      for (auto mi = a0; mi != a1; ++mi)
+        if (*mi != static_cast<int>(si)) near_own += segs_[*mi].moments;
+      for (auto mi = m0; mi != m1; ++mi) near_other += segs_[*mi].moments;
+      if (near_own.n < p_.min_points) continue;
+      const auto inFront = [&](const PlaneFit& f, const Eigen::Vector3d& x) {
+        const double d = f.normal.dot(x) - f.offset;
+        return f.normal.dot(s.origin) > f.offset ? d : -d;  // normal turned to the sensor
+      };
+      const double side = inFront(o.fit, near_own.mean()) + inFront(own.fit, near_other.mean());
+      const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+      if (std::abs(side) < tol) continue;
+      const bool convex = side < 0.0;
+      if (!pts) {
+        pts = points(s.line);
+        if (!pts || static_cast<int>(pts->size()) <= s.last) break;
+        Moments3 rest = own.moments;
+        rest -= s.moments;
+        fa = own.lines > 2 ? fitPlane(rest) : own.fit;
+      }
+      // Each beam's ray meets both planes; the surface is the farther of the
+      // two at a convex crease, the nearer at a concave one. The range noise
+      // of a point does not move its ray: near the crease the ray tells the
+      // planes apart where the points' distances cannot, unless the planes
+      // meet the ray within a few millimetres of each other (a line right on
+      // the crease: either will do, it stays). A beam votes for the other
+      // plane if its ray meets that one clearly first (last) and its point
+      // lies within the threshold of it, against if clearly not; the run
+      // with the most votes net.
+      double run = 0.0;
+      int run_first = lo;
+      const double ha = fa.offset - fa.normal.dot(s.origin), hb = o.fit.offset - o.fit.normal.dot(s.origin);
+      for (int i = lo; i <= hi; ++i) {
+        const Eigen::Vector3f& q = (*pts)[i];
+        if (!std::isfinite(q.x())) continue;
+        const Eigen::Vector3d ray = q.cast<double>() - s.origin;
+        const double r = ray.norm();
+        const double ta = ha / fa.normal.dot(ray), tb = hb / o.fit.normal.dot(ray);  // along the ray, 1 at the point
+        double vote = -1.0;
+        if (std::isfinite(ta) && std::isfinite(tb) && ta > 0.0 && tb > 0.0 && std::abs(1.0 - tb) * r <= thr) {
+          const double lead = (convex ? tb - ta : ta - tb) * r;  // [m], > 0: the other plane's
+          vote = lead > kCreaseMargin ? 1.0 : lead < -kCreaseMargin ? -1.0 : -0.25;
+        }
+        if (run <= 0.0) {
+          run = 0.0;
+          run_first = i;
+        }
+        run += vote;
+        if (run > best_votes) {
+          best = {static_cast<int>(si), run_first, i, rj};
+          best_votes = run;
+        }
+      }
+    }
+    if (best.seg < 0) continue;
+    // The rest stays a segment of its own plane (a whole segment that fits
+    // the other plane better is the crease pass's to move).
+    int rest_n = 0;
+    for (int i = s.first; i <= s.last; ++i)
+      rest_n += (i < best.first || i > best.last) && std::isfinite((*pts)[i].x());
+    if (rest_n < p_.min_points) continue;
+    Segment3 piece;
+    if (!fillSegment3(*pts, [&](int) { return s.range; }, s.line, best.first, best.last, piece)) continue;
+    const Region& o = regions_[best.to];
+    if (std::abs(o.fit.normal.dot(piece.moments.mean()) - o.fit.offset) >
+        std::max(p_.centroid_min, p_.centroid_ratio * s.range))
+      continue;
+    cuts.push_back(best);
+  }
+  if (cuts.empty()) return;
+
+  // The segments again, each cut one in its pieces (in beam order); the
+  // regions that lost or gained points are summed again.
+  std::vector<Segment3> out;
+  std::vector<int> region;
+  out.reserve(segs_.size() + 2 * cuts.size());
+  region.reserve(out.capacity());
+  std::vector<char> touched(regions_.size(), 0);
+  std::size_t c = 0;
+  for (std::size_t si = 0; si < segs_.size(); ++si) {
+    if (c == cuts.size() || cuts[c].seg != static_cast<int>(si)) {
+      out.push_back(segs_[si]);
+      region.push_back(seg_region_[si]);
+      continue;
+    }
+    const Cut& cut = cuts[c++];
+    const Segment3& s = segs_[si];
+    const std::vector<Eigen::Vector3f>& pts = *points(s.line);
+    const int own = seg_region_[si];
+    touched[own] = touched[cut.to] = 1;
+    const std::pair<int, int> spans[3] = {{s.first, cut.first - 1}, {cut.first, cut.last}, {cut.last + 1, s.last}};
+    for (int k = 0; k < 3; ++k) {
+      Segment3 piece;
+      if (spans[k].second < spans[k].first ||
+          !fillSegment3(pts, [&](int) { return s.range; }, s.line, spans[k].first, spans[k].second, piece))
+        continue;
+      piece.origin = s.origin;
+      out.push_back(piece);
+      region.push_back(k == 1 ? cut.to : own);
+    }
+  }
+  segs_ = std::move(out);
+  seg_region_ = std::move(region);
+  for (Region& r : regions_) r.members.clear();
+  for (std::size_t si = 0; si < segs_.size(); ++si)
+    if (seg_region_[si] >= 0) regions_[seg_region_[si]].members.push_back(static_cast<int>(si));
+  for (std::size_t ri = 0; ri < regions_.size(); ++ri) {
+    if (!touched[ri]) continue;
+    Region& r = regions_[ri];
+    r.moments = Moments3();
+    for (int m : r.members) r.moments += segs_[m].moments;
+    r.fit = fitPlane(r.moments);
+    r.first_line = segs_[r.members.front()].line;
+    r.last_line = segs_[r.members.back()].line;
+    r.lines = countLines(r.members, segs_);
   }
 }
 

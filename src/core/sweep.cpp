@@ -146,7 +146,7 @@ bool SweepAssembler::finishSweep(double end, SweepResult& out) {
     return false;
   }
   const double t0 = cpuNow();
-  grouper_.finish(current_.planes);
+  grouper_.finish(current_.planes, [this](int line) { return &current_.lines[line].points; });
   current_.finish_seconds = cpuNow() - t0;
   current_.segments = grouper_.segments();
   current_.segment_plane = grouper_.segmentPlane();

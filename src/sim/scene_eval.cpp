@@ -170,7 +170,8 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
           }
         e.missed_segments.push_back(
             scene.faces[f].label + ": line " + std::to_string(s.line) + " beams " + std::to_string(s.first) + "-" +
-            std::to_string(s.last) + " (" + std::to_string(static_cast<int>(s.moments.n)) + " points, mostly " +
+            std::to_string(s.last) + " (" + std::to_string(static_cast<int>(s.moments.n)) + " points, " +
+            std::to_string(on_it == faces.end() ? 0 : on_it->second) + " on it, mostly " +
             (mf >= 0 ? scene.faces[mf].object + "/" + scene.faces[mf].label : std::string("none")) + ") -> plane " +
             std::to_string(pl));
       }

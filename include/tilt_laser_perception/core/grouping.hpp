@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -78,8 +79,13 @@ class ScanLineGrouper {
   void reset(const Eigen::Vector3d& sensor = Eigen::Vector3d::Zero());
   /// Adds the segments of the next scan line (all with the same `line`, increasing).
   void addLine(const std::vector<Segment3>& segments);
+  /// The points of scan line `line` by beam (NaN where none), those its
+  /// segments were made of; null when unknown.
+  using LinePoints = std::function<const std::vector<Eigen::Vector3f>*(int line)>;
   /// Merges, filters and builds the polygons; planes are numbered from 0.
-  void finish(std::vector<Plane>& planes);
+  /// With the lines' points, segments that cross a crease are cut there
+  /// (segments() then holds the pieces).
+  void finish(std::vector<Plane>& planes, const LinePoints& points = nullptr);
 
   const std::vector<Segment3>& segments() const { return segs_; }
   /// After finish(): the plane of each segment, -1 for none.
@@ -124,6 +130,11 @@ class ScanLineGrouper {
   /// from its own plane fitted without it, leaves that plane (each segment
   /// moves once); true when one moved.
   bool moveCreaseSegments(const std::vector<int>& cand, std::vector<char>& moved_once);
+  /// A segment that crosses a crease (a line over a yawed box's edge, a
+  /// line along a riser's foot) lies on two planes, too gently bent for the
+  /// split to see. Cuts out the run of its points that a neighbouring plane
+  /// explains better than its own, if the gain is well above the noise.
+  void cutAtCreases(const std::vector<int>& cand, const LinePoints& points);
   void buildPolygon(const Region& r, Plane& out) const;
 
   GroupingParams p_;

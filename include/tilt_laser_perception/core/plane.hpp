@@ -28,6 +28,12 @@ struct Moments3 {
     ss += o.ss;
     return *this;
   }
+  Moments3& operator-=(const Moments3& o) {
+    n -= o.n;
+    s -= o.s;
+    ss -= o.ss;
+    return *this;
+  }
   Eigen::Vector3d mean() const { return n > 0 ? Eigen::Vector3d(s / n) : Eigen::Vector3d::Zero(); }
   /// Moments of the same points after p -> T p.
   Moments3 transformed(const Eigen::Isometry3d& T) const {
