@@ -83,15 +83,16 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
   };
   ScanLineGrouper g(grouping);
   g.reset(origin);
-  std::vector<Eigen::Vector3f> line_pts(length);
+  // Each line's points kept: finish() cuts the segments that cross a crease by them.
+  std::vector<std::vector<Eigen::Vector3f>> line_pts(lines, std::vector<Eigen::Vector3f>(length));
   std::vector<Segment3> segs;
   for (int l = 0; l < lines; ++l) {
-    for (int i = 0; i < length; ++i) line_pts[i] = points[index(l, i)];
+    for (int i = 0; i < length; ++i) line_pts[l][i] = points[index(l, i)];
     segs.clear();
-    splitPolyline(line_pts, origin, split, l, segs);
+    splitPolyline(line_pts[l], origin, split, l, segs);
     g.addLine(segs);
   }
-  g.finish(planes);
+  g.finish(planes, [&](int line) { return &line_pts[line]; });
   labels.assign(points.size(), 0);
   for (const Plane& p : planes)
     for (int m : p.members) {
