@@ -262,6 +262,33 @@ TEST(Grouping, ARiserLinePairsWithTheNextRiserLineNotWithAShortPieceBeforeIt) {
   EXPECT_EQ(step.tread->segments, 4);
 }
 
+TEST(Grouping, ARiserKeepsItsLineWhenTheRestIsALineAndAShortPiece) {
+  // A riser x = 1.4 crossed by two lines (z 0.05, 0.10; the second cut in
+  // two at an outlier); the next line comes in a short piece near the nose (1 cm behind the riser, 3 cm under
+  // the tread) and a long one on the tread 1.5 cm behind the nose, within
+  // the riser's tolerance: the riser takes both. The long piece goes to the
+  // tread at the end. The rest of the riser without its first line is then
+  // a line and a short piece, which span no plane: the first line stays (it
+  // left for the tilted plane through the two, 2.5 cm off it).
+  std::vector<std::vector<Segment3>> lines = floorLines(6, 1.0, 0.06, 0.0, -0.6, 0.6);
+  lines.push_back({seg(6, 100, {1.4, -0.6, 0.05}, {1.4, 0.6, 0.05}, 120)});
+  lines.push_back({seg(7, 100, {1.4, -0.6, 0.10}, {1.4, -0.5, 0.10}, 10),  // cut at an outlier
+                   seg(7, 110, {1.4, -0.49, 0.10}, {1.4, 0.6, 0.10}, 110)});
+  lines.push_back({seg(8, 100, {1.41, -0.6, 0.12}, {1.41, -0.5, 0.12}, 10),
+                   seg(8, 110, {1.415, -0.49, 0.15}, {1.415, 0.6, 0.15}, 110)});
+  for (int k = 0; k < 5; ++k)
+    lines.push_back({seg(9 + k, 100, {1.47 + 0.06 * k, -0.6, 0.15}, {1.47 + 0.06 * k, 0.6, 0.15}, 120)});
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  const StepPlanes step = stepPlanes(planes, 0.15);
+  int riser_points = 0;
+  for (const auto& p : planes)
+    if (std::abs(p.fit.normal.x()) > 0.9) riser_points = std::max(riser_points, p.points);
+  EXPECT_GE(riser_points, 240);  // both its lines
+  ASSERT_EQ(step.treads, 1);
+  EXPECT_EQ(step.tread->points, 5 * 120 + 110);
+}
+
 TEST(Grouping, APlaneWithAHole) {
   // Lines 3..6 have a gap between y = -0.2 and 0.2 (beams 160..199): a hole of 4 x 5 cm gaps... 0.15 m x 0.4 m.
   std::vector<std::vector<Segment3>> lines;

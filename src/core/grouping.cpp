@@ -369,14 +369,18 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
       return rj != ri && !o.dead && o.lines >= 2 && s.line >= o.first_line - 1 && s.line <= o.last_line + 1 &&
              std::abs(o.fit.normal.dot(c) - o.fit.offset) <= tol;
     };
-    // Its distance to its own plane fitted without it (it pulled that plane
-    // towards itself): beyond the tolerance, it does not belong there (a
-    // riser's foot line that tilted the tread it joined) and leaves.
-    const auto rest_distance = [&] {
+    // Its own plane fitted without it (it pulled that plane towards itself):
+    // farther than the tolerance from it, it does not belong there (a riser's
+    // foot line that tilted the tread it joined) and leaves, if the rest
+    // still spans a plane (not a line and a short piece).
+    const auto restFit = [&] {
       Moments3 rest = own.moments;
       rest -= s.moments;
-      const PlaneFit f = fitPlane(rest);
-      return std::abs(f.normal.dot(c) - f.offset);
+      return fitPlane(rest);
+    };
+    const bool spare = own.lines >= 3 && own.members.size() >= 4;
+    const auto leaves = [&](const PlaneFit& rest) {
+      return spare && rest.spread(1) > kPlanarSpread && std::abs(rest.normal.dot(c) - rest.offset) > tol;
     };
     const auto leave = [&] {
       moved_once[si] = 1;
@@ -384,12 +388,12 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
       newRegion(static_cast<int>(si));
       moved = true;
     };
-    const bool spare = own.lines >= 3 && own.members.size() >= 4;
     if (std::none_of(cand.begin(), cand.end(), reaches)) {
-      if (spare && rest_distance() > tol) leave();
+      if (spare && leaves(restFit())) leave();
       continue;
     }
-    const double d_own = rest_distance();
+    const PlaneFit rest = restFit();
+    const double d_own = std::abs(rest.normal.dot(c) - rest.offset);
     // On the crease itself (as near one plane as the other, to a quarter of
     // the tolerance) it goes to the plane of fewer lines, which it constrains
     // more (a box's front face below its top).
@@ -410,7 +414,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
       }
     }
     if (best < 0) {
-      if (spare && d_own > tol) leave();
+      if (leaves(rest)) leave();
       continue;
     }
     moved_once[si] = 1;  // once: refitted without it, the plane it left would call it back

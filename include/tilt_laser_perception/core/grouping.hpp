@@ -102,7 +102,9 @@ class ScanLineGrouper {
   };
   bool fits(const Region& r, const Segment3& s, double& score) const;
   /// Whether r's lines lie far enough apart to fix its normal.
-  static bool planar(const Region& r) { return r.last_line > r.first_line && r.fit.spread(1) > 0.02; }
+  static bool planar(const Region& r) { return r.last_line > r.first_line && r.fit.spread(1) > kPlanarSpread; }
+  /// Points spread this much across their lines, or more, fix a normal [m].
+  static constexpr double kPlanarSpread = 0.02;
   /// Three lines or more span a plane (two parallel lines fit any plane
   /// through both), if they lie far enough apart.
   static bool confirmed(const Region& r) { return r.lines >= 3 && planar(r); }
