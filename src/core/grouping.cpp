@@ -701,12 +701,16 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       }
     }
     if (best.seg < 0) continue;
-    // The rest stays a segment of its own plane (a whole segment that fits
-    // the other plane better is the crease pass's to move).
+    // The rest stays a segment of its own plane; too short for one, it goes
+    // along (the whole segment belongs to the other plane: the first line
+    // on a box's top that its front took, the distances being a tie).
     int rest_n = 0;
     for (int i = s.first; i <= s.last; ++i)
       rest_n += (i < best.first || i > best.last) && std::isfinite((*pts)[i].x());
-    if (rest_n < p_.min_points) continue;
+    if (rest_n < p_.min_points) {
+      best.first = s.first;
+      best.last = s.last;
+    }
     Segment3 piece;
     if (!fillSegment3(*pts, [&](int) { return s.range; }, s.line, best.first, best.last, piece)) continue;
     const Region& o = regions_[best.to];
