@@ -616,6 +616,8 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     const Region& own = regions_[ri];
     const std::vector<Eigen::Vector3f>* pts = nullptr;
     PlaneFit fa;  // its own plane, without it if the rest spans a plane
+    Moments3 near_own;  // its own plane's other members on the lines near it
+    near_own.n = -1.0;  // not summed yet
     const double thr = p_.threshold(s.range);
     Cut best{-1, 0, 0, -1};
     double best_votes = p_.min_points - 0.5;
@@ -645,10 +647,13 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       // plane's members near it lie behind the other plane, as seen from the
       // sensor; concave (a riser's foot) when in front. Not clear by the
       // tolerance: no crease to cut at.
-      Moments3 near_own, near_other;
-      const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
-      for (auto mi = a0; mi != a1; ++mi)
-        if (*mi != static_cast<int>(si)) near_own += segs_[*mi].moments;
+      if (near_own.n < 0.0) {  // the same for every other plane: summed once
+        near_own = Moments3();
+        const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+        for (auto mi = a0; mi != a1; ++mi)
+          if (*mi != static_cast<int>(si)) near_own += segs_[*mi].moments;
+      }
+      Moments3 near_other;
       for (auto mi = m0; mi != m1; ++mi) near_other += segs_[*mi].moments;
       if (near_own.n < p_.min_points) continue;
       const auto inFront = [&](const PlaneFit& f, const Eigen::Vector3d& x) {
