@@ -675,8 +675,8 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       // two at a convex crease, the nearer at a concave one. The range noise
       // of a point does not move its ray: near the crease the ray tells the
       // planes apart where the points' distances cannot, unless the planes
-      // meet the ray within a few millimetres of each other (a line right on
-      // the crease: either will do, it stays). A beam votes for the other
+      // meet the ray within kCreaseMargin of each other (a line right on the
+      // crease, within the planes' own errors: it stays). A beam votes for the other
       // plane if its ray meets that one clearly first (last) and its point
       // lies within the threshold of it, against if clearly not; the run
       // with the most votes net.
@@ -707,8 +707,8 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     }
     if (best.seg < 0) continue;
     // The rest stays a segment of its own plane; too short for one, it goes
-    // along (the whole segment belongs to the other plane: the first line
-    // on a box's top that its front took, the distances being a tie).
+    // along (the whole segment belongs to the other plane: a tread's first
+    // line that the riser below kept).
     int rest_n = 0;
     for (int i = s.first; i <= s.last; ++i)
       rest_n += (i < best.first || i > best.last) && std::isfinite((*pts)[i].x());
@@ -716,7 +716,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       best.first = s.first;
       best.last = s.last;
     }
-    Segment3 piece;
+    Segment3 piece;  // its range: the segment's (it only sets thresholds)
     if (!fillSegment3(*pts, [&](int) { return s.range; }, s.line, best.first, best.last, piece)) continue;
     const Region& o = regions_[best.to];
     if (std::abs(o.fit.normal.dot(piece.moments.mean()) - o.fit.offset) >
@@ -764,6 +764,10 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   for (std::size_t ri = 0; ri < regions_.size(); ++ri) {
     if (!touched[ri]) continue;
     Region& r = regions_[ri];
+    if (r.members.empty()) {  // its segments all went whole
+      r.dead = true;
+      continue;
+    }
     r.moments = Moments3();
     for (int m : r.members) r.moments += segs_[m].moments;
     r.fit = fitPlane(r.moments);
