@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/core/sequence.hpp"
@@ -61,6 +62,52 @@ StepPlanes stepPlanes(const std::vector<Plane>& planes, double tread_z) {
       ++out.risers;
       out.riser = &p;
     }
+  }
+  return out;
+}
+
+/// Rays from kStepSensor towards the floor at x = aim, beams y = -0.6 .. 0.6
+/// (121). A step 0.6 m wide (|y| <= 0.3, beams 30..90): riser x = 1.5 up to
+/// 0.15, tread beyond. Each line's points, and its segments as the split
+/// would give them: one for a line aimed short of 1.55 (floor, or a riser's
+/// foot too low to bend it by the threshold), three otherwise (floor, the
+/// step, floor). An aim of 0: a line without returns.
+const Eigen::Vector3d kStepSensor(0, 0, 1.5);
+struct StepScan {
+  std::vector<std::vector<Eigen::Vector3f>> points;
+  std::vector<std::vector<Segment3>> lines;
+};
+StepScan scanStep(const std::vector<double>& aims) {
+  const Eigen::Vector3d o = kStepSensor;
+  const auto hit = [&](double aim, double y) {
+    const Eigen::Vector3d d = Eigen::Vector3d(aim, y, 0.0) - o;
+    Eigen::Vector3d p = o + d;  // on the floor
+    if (std::abs(y) < 0.305 && p.x() >= 1.5) {
+      const Eigen::Vector3d r = o + d * ((1.5 - o.x()) / d.x());
+      p = r.z() <= 0.15 ? r : Eigen::Vector3d(o + d * ((o.z() - 0.15) / o.z()));
+    }
+    return p;
+  };
+  StepScan out;
+  for (std::size_t k = 0; k < aims.size(); ++k) {
+    std::vector<Eigen::Vector3f> pts;
+    std::vector<float> ranges;
+    for (int b = 0; b <= 120; ++b) {
+      pts.push_back(aims[k] > 0.0 ? Eigen::Vector3f(hit(aims[k], -0.6 + 0.01 * b).cast<float>())
+                                  : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+      ranges.push_back(static_cast<float>((pts.back().cast<double>() - o).norm()));
+    }
+    std::vector<std::pair<int, int>> spans{{0, 120}};
+    if (aims[k] > 1.55) spans = {{0, 29}, {30, 90}, {91, 120}};
+    std::vector<Segment3> l;
+    for (const auto& [a, b] : spans) {
+      Segment3 s;
+      if (!makeSegment3(pts, ranges, static_cast<int>(k), a, b, s)) continue;
+      s.origin = o;
+      l.push_back(s);
+    }
+    out.points.push_back(pts);
+    out.lines.push_back(l);
   }
   return out;
 }
@@ -355,45 +402,14 @@ TEST(Grouping, ACornerStaysPutWhereItsRayGrazesThePlane) {
 }
 
 TEST(Grouping, ALineAlongARisersFootIsCutWhereItsRaysMeetTheRiser) {
-  // Rays from (0, 0, 1.5) towards the floor at x = aim, beams y = -0.6 ..
-  // 0.6 (121). A step 0.6 m wide (|y| <= 0.3): riser x = 1.5 up to 0.15,
-  // tread beyond. The line aimed at x = 1.52 meets the riser 2 cm above its
+  // scanStep's step. The line aimed at x = 1.52 meets the riser 2 cm above its
   // foot: too gentle a bend for the split, one segment of floor and riser
   // points that the floor takes. Its rays meet the riser's plane before the
   // floor's (a concave crease): beams 30..90 go to the riser.
-  const Eigen::Vector3d o(0, 0, 1.5);
-  const auto hit = [&](double aim, double y) {
-    const Eigen::Vector3d d = Eigen::Vector3d(aim, y, 0.0) - o;
-    Eigen::Vector3d p = o + d;  // on the floor
-    if (std::abs(y) < 0.305 && p.x() >= 1.5) {  // beams 30..90
-      const Eigen::Vector3d r = o + d * ((1.5 - o.x()) / d.x());
-      p = r.z() <= 0.15 ? r : Eigen::Vector3d(o + d * ((o.z() - 0.15) / o.z()));
-    }
-    return p;
-  };
-  const std::vector<double> aims{1.30, 1.35, 1.40, 1.45, 1.52, 1.57, 1.62, 1.72, 1.77, 1.82, 1.87};
-  std::vector<std::vector<Eigen::Vector3f>> points;
-  std::vector<std::vector<Segment3>> lines;
-  for (std::size_t k = 0; k < aims.size(); ++k) {
-    std::vector<Eigen::Vector3f> pts;
-    std::vector<float> ranges;
-    for (int b = 0; b <= 120; ++b) {
-      pts.push_back(hit(aims[k], -0.6 + 0.01 * b).cast<float>());
-      ranges.push_back(static_cast<float>((pts.back().cast<double>() - o).norm()));
-    }
-    // The split: one segment where the line bends less than its threshold.
-    std::vector<std::pair<int, int>> spans{{0, 120}};
-    if (aims[k] > 1.55) spans = {{0, 29}, {30, 90}, {91, 120}};
-    std::vector<Segment3> l;
-    for (const auto& [a, b] : spans) {
-      Segment3 s;
-      EXPECT_TRUE(makeSegment3(pts, ranges, static_cast<int>(k), a, b, s));
-      s.origin = o;
-      l.push_back(s);
-    }
-    points.push_back(pts);
-    lines.push_back(l);
-  }
+  const Eigen::Vector3d o = kStepSensor;
+  const StepScan scan = scanStep({1.30, 1.35, 1.40, 1.45, 1.52, 1.57, 1.62, 1.72, 1.77, 1.82, 1.87});
+  const auto& points = scan.points;
+  const auto& lines = scan.lines;
   for (const bool with_points : {false, true}) {
     ScanLineGrouper g;
     g.reset(o);
@@ -426,6 +442,45 @@ TEST(Grouping, ALineAlongARisersFootIsCutWhereItsRaysMeetTheRiser) {
       EXPECT_EQ(on_riser, s.first == 30 && s.last == 90) << s.first << ".." << s.last;
     }
     EXPECT_EQ(pieces, 3);
+  }
+}
+
+TEST(Grouping, ATreadsFirstLineThatTheRiserKeptGoesWholeToTheTread) {
+  // scanStep's step: riser lines at z 0.067, 0.111, 0.141; the next line
+  // meets the tread 8 mm behind the nose, within the riser's tolerance, and
+  // the riser takes it; the line after it is lost, so the tread's plane
+  // begins two lines later, too far for the crease pass. The nose line's
+  // rays meet the riser's plane 1.1 cm before the tread's (a convex
+  // crease: the farther is the surface; 5 mm behind the nose it would be
+  // within the margin and stay): all its beams vote for the tread, and the
+  // whole segment goes.
+  const StepScan scan = scanStep({1.30, 1.35, 1.40, 1.45, 1.57, 1.62, 1.655, 1.6756, 0.0, 1.77, 1.82, 1.87, 1.92});
+  for (const bool with_points : {false, true}) {
+    ScanLineGrouper g;
+    g.reset(kStepSensor);
+    for (const auto& l : scan.lines) g.addLine(l);
+    std::vector<Plane> planes;
+    if (with_points)
+      g.finish(planes, [&](int line) { return &scan.points[line]; });
+    else
+      g.finish(planes);
+    int nose_plane = -2;
+    for (std::size_t si = 0; si < g.segments().size(); ++si)
+      if (g.segments()[si].line == 7 && g.segments()[si].first == 30) nose_plane = g.segmentPlane()[si];
+    const Plane* riser = nullptr;
+    const Plane* tread = nullptr;
+    for (const auto& p : planes) {
+      if (std::abs(p.fit.normal.x()) > 0.9) riser = &p;
+      if (std::abs(p.fit.normal.z()) > 0.9 && p.fit.centroid.z() > 0.1) tread = &p;
+    }
+    ASSERT_NE(riser, nullptr);
+    ASSERT_NE(tread, nullptr);
+    EXPECT_EQ(nose_plane, with_points ? tread->id : riser->id);
+    if (with_points) {
+      EXPECT_EQ(riser->points, 3 * 61);
+      EXPECT_NEAR(riser->fit.offset * riser->fit.normal.x(), 1.5, 1e-4);
+      EXPECT_EQ(tread->points, 5 * 61);
+    }
   }
 }
 
