@@ -311,9 +311,10 @@ TEST(Grouping, ARiserLinePairsWithTheNextRiserLineNotWithAShortPieceBeforeIt) {
 
 TEST(Grouping, ARiserKeepsItsLineWhenTheRestIsALineAndAShortPiece) {
   // A riser x = 1.4 crossed by two lines (z 0.05, 0.10; the second cut in
-  // two at an outlier); the next line comes in a short piece near the nose (1 cm behind the riser, 3 cm under
-  // the tread) and a long one on the tread 1.5 cm behind the nose, within
-  // the riser's tolerance: the riser takes both. The long piece goes to the
+  // two at an outlier); the next line comes in a short piece near the nose
+  // (1 cm behind the riser, 3 cm under the tread) and a long one on the
+  // tread 1.5 cm behind the nose, within the riser's tolerance: the riser
+  // takes both. The long piece goes to the
   // tread at the end. The rest of the riser without its first line is then
   // a line and a short piece, which span no plane: the first line stays (it
   // left for the tilted plane through the two, 2.5 cm off it).
