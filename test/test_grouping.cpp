@@ -337,6 +337,25 @@ TEST(Grouping, ARiserKeepsItsLineWhenTheRestIsALineAndAShortPiece) {
   EXPECT_EQ(step.tread->points, 5 * 120 + 110);
 }
 
+TEST(Grouping, NoSeedAcrossALineThatSawSomethingElseBetween) {
+  // Line 0 leaves a lone piece of a tread (z 0.15, 6 cm in front of the
+  // riser x = 1.5); line 1 sees something else at those beams (a rail 0.8 m
+  // up); lines 2 and 3 cross the riser (z 0.20, 0.25). Two parallel lines
+  // always share a plane, and line 2 would seed one with the piece two lines
+  // back (tilted 40 degrees; line 3 would not fit it). Line 1 saw another
+  // surface between them: no seed across it; the riser's lines pair.
+  std::vector<std::vector<Segment3>> lines{
+      {seg(0, 100, {1.44, -0.6, 0.15}, {1.44, 0.08, 0.15}, 68)},
+      {seg(1, 100, {1.47, -0.6, 0.80}, {1.47, 0.6, 0.80}, 120)},
+      {seg(2, 100, {1.5, -0.6, 0.20}, {1.5, 0.6, 0.20}, 120)},
+      {seg(3, 100, {1.5, -0.6, 0.25}, {1.5, 0.6, 0.25}, 120)}};
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_EQ(planes[0].points, 240);
+  EXPECT_NEAR(std::abs(planes[0].fit.normal.x()), 1.0, 1e-9);
+}
+
 TEST(Grouping, APlaneWithAHole) {
   // Lines 3..6 have a gap between y = -0.2 and 0.2 (beams 160..199): a hole of 4 x 5 cm gaps... 0.15 m x 0.4 m.
   std::vector<std::vector<Segment3>> lines;

@@ -253,6 +253,16 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
 bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score) const {
   const double ov = sideBySide(a, b);
   if (ov < kMinSeedOverlap || !near(a, b, p_.seed_gap + 0.05 * b.range)) return false;
+  // Across a line that saw something else beside them they lie on two
+  // surfaces (a tread's piece and the riser above it), not on one that a
+  // line missed.
+  const int lo = std::min(a.line, b.line), hi = std::max(a.line, b.line);
+  if (hi - lo > 1) {
+    auto it = std::lower_bound(segs_.begin(), segs_.end(), lo + 1,
+                               [](const Segment3& t, int line) { return t.line < line; });
+    for (; it != segs_.end() && it->line < hi; ++it)
+      if (it->moments.n >= p_.min_points && it->first <= b.last && b.first <= it->last) return false;
+  }
   Moments3 m = a.moments;
   m += b.moments;
   const PlaneFit f = fitPlane(m);
