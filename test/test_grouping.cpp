@@ -637,6 +637,30 @@ TEST(SweepAssembler, CutsSweepsAtReversalsAndDropsLinesWithoutJointStates) {
     }
 }
 
+TEST(SweepAssembler, ALineJustAfterAReversalWaitsToKnowItsSweep) {
+  // A tilt that slows into its turns (0.2 .. 0.8 rad, a cosine of period
+  // 1.2 s): the joint comes back by the hysteresis (0.005 rad) 35 ms after
+  // each extreme, while the line that starts at the extreme is covered by
+  // joint states and arrives 25 ms after it. Put in 3D at once it would join
+  // the sweep that ends before its middle; it waits for the reversal.
+  SweepParams p;
+  p.min_lines = 3;
+  TiltChain chain;
+  SweepAssembler a(p, chain);
+  std::vector<SweepResult> sweeps;
+  drive(a, [](double t) { return 0.5 - 0.3 * std::cos(M_PI * t / 0.6); }, 3.0, 0.0, &sweeps);
+  ASSERT_EQ(sweeps.size(), 3u);  // 0.6-1.2, 1.2-1.8, 1.8-2.4
+  for (const auto& sw : sweeps) {
+    EXPECT_NEAR(sw.end - sw.start, 0.6, 0.006);
+    for (const auto& l : sw.lines) {
+      const double mid = l.stamp + 0.005;
+      EXPECT_GE(mid, sw.start) << "sweep " << sw.start << ".." << sw.end;
+      EXPECT_LE(mid, sw.end) << "sweep " << sw.start << ".." << sw.end;
+    }
+    EXPECT_EQ(sw.dropped_lines, 0);
+  }
+}
+
 TEST(SweepAssembler, WaitsForLateTransformsAndDropsLinesInATfGap) {
   using Status = SweepAssembler::PoseStatus;
   // The head's base is 0.5 m up and its transforms arrive 0.1 s late (within

@@ -332,6 +332,16 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       queue_.pop_front();
       continue;
     }
+    // A reversal is known only once the joint has come back from its extreme
+    // by the hysteresis. While one that would end the sweep before this
+    // line's middle may still come (the joint has turned at or before it),
+    // the line waits for it, up to max_wait (a head that holds still there
+    // is no reversal): otherwise when the line is put in 3D, before or after
+    // the reversal is known, would decide its sweep (a replay differed from
+    // the live run by the first line after a reversal).
+    if (direction_ != 0 && extreme_t_ <= mid && last_joint_t_ > extreme_t_ &&
+        now - queue_.front().second <= p_.max_wait)
+      return false;
     if (in.stamp <= last_line_stamp_ || (in_sweep_ && mid < current_.start)) {
       // Out of order, or late for the sweep it belongs to (already finished): never mixed into the next.
       ++counters_.lines_out_of_order;
