@@ -602,6 +602,15 @@ double triangle(double t) {
   return ph < 0.6 ? 0.2 + ph : 1.4 - ph;
 }
 
+/// Every line's middle (drive's lines span 10 ms) lies in its sweep: sweeps never mix.
+void expectLinesInTheirSweeps(const std::vector<SweepResult>& sweeps) {
+  for (const auto& sw : sweeps)
+    for (const auto& l : sw.lines) {
+      EXPECT_GE(l.stamp + 0.005, sw.start) << "sweep " << sw.start << ".." << sw.end;
+      EXPECT_LE(l.stamp + 0.005, sw.end) << "sweep " << sw.start << ".." << sw.end;
+    }
+}
+
 std::vector<SweepResult> runTriangle(double max_dropped_fraction, SweepCounters* counters,
                                      SweepAssembler::BasePose base_pose = nullptr) {
   SweepParams p;
@@ -630,11 +639,7 @@ TEST(SweepAssembler, CutsSweepsAtReversalsAndDropsLinesWithoutJointStates) {
   EXPECT_GE(sweeps[1].dropped_lines, 2);
   EXPECT_LE(sweeps[1].dropped_lines, 3);
   EXPECT_GE(c.lines_no_joint, 2u);
-  for (const auto& s : sweeps)
-    for (const auto& l : s.lines) {
-      EXPECT_GE(l.stamp + 0.005, s.start);  // never mixed
-      EXPECT_LE(l.stamp + 0.005, s.end);
-    }
+  expectLinesInTheirSweeps(sweeps);
 }
 
 TEST(SweepAssembler, ALineJustAfterAReversalWaitsToKnowItsSweep) {
@@ -652,13 +657,9 @@ TEST(SweepAssembler, ALineJustAfterAReversalWaitsToKnowItsSweep) {
   ASSERT_EQ(sweeps.size(), 3u);  // 0.6-1.2, 1.2-1.8, 1.8-2.4
   for (const auto& sw : sweeps) {
     EXPECT_NEAR(sw.end - sw.start, 0.6, 0.006);
-    for (const auto& l : sw.lines) {
-      const double mid = l.stamp + 0.005;
-      EXPECT_GE(mid, sw.start) << "sweep " << sw.start << ".." << sw.end;
-      EXPECT_LE(mid, sw.end) << "sweep " << sw.start << ".." << sw.end;
-    }
     EXPECT_EQ(sw.dropped_lines, 0);
   }
+  expectLinesInTheirSweeps(sweeps);
 }
 
 TEST(SweepAssembler, WaitsForLateTransformsAndDropsLinesInATfGap) {

@@ -123,6 +123,16 @@ bool makeSegment3(const std::vector<Point>& pts, const std::vector<Range>& range
                   Segment3& s) {
   return fillSegment3(pts, [&](int i) { return static_cast<double>(ranges[i]); }, line, first, last, s);
 }
+
+namespace {
+/// The piece of s made of pts[first..last], seen from where s was; its range
+/// is s's (it only sets thresholds).
+bool pieceOf(const Segment3& s, const std::vector<Eigen::Vector3f>& pts, int first, int last, Segment3& piece) {
+  if (last < first || !fillSegment3(pts, [&](int) { return s.range; }, s.line, first, last, piece)) return false;
+  piece.origin = s.origin;
+  return true;
+}
+}  // namespace
 template bool makeSegment3(const std::vector<Eigen::Vector3d>&, const std::vector<double>&, int, int, int, Segment3&);
 template bool makeSegment3(const std::vector<Eigen::Vector3f>&, const std::vector<float>&, int, int, int, Segment3&);
 
@@ -600,18 +610,16 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     int seg, first, last, to;
   };
   std::vector<Cut> cuts;
-  // The planes that could take a piece, at hand: their lines, beams and fit.
+  // The planes that could take a piece, with the lines and beams they reach.
   struct Other {
     int region, line_lo, line_hi, beam_lo, beam_hi;
-    Eigen::Vector3d normal;
-    double offset;
   };
   std::vector<Other> others;
   for (const int rj : cand) {
     const Region& o = regions_[rj];
     if (o.dead || o.lines < 2) continue;
     Other x{rj, o.first_line - p_.max_line_gap, o.last_line + p_.max_line_gap, segs_[o.members[0]].first,
-            segs_[o.members[0]].last, o.fit.normal, o.fit.offset};
+            segs_[o.members[0]].last};
     for (const int m : o.members) {
       x.beam_lo = std::min(x.beam_lo, segs_[m].first - p_.beam_slack);
       x.beam_hi = std::max(x.beam_hi, segs_[m].last + p_.beam_slack);
@@ -625,7 +633,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     if (s.moments.n < 2 * p_.min_points || !s.origin.allFinite()) continue;
     const Region& own = regions_[ri];
     const std::vector<Eigen::Vector3f>* pts = nullptr;
-    PlaneFit fa;  // its own plane, without it if the rest spans a plane
+    PlaneFit fa;  // its own plane, without it if the rest has two lines or more
     Moments3 near_own;  // its own plane's other members on the lines near it
     near_own.n = -1.0;  // not summed yet
     const double thr = p_.threshold(s.range);
@@ -634,12 +642,12 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     for (const Other& x : others) {
       if (x.region == ri || s.line < x.line_lo || s.line > x.line_hi || s.last < x.beam_lo || s.first > x.beam_hi)
         continue;
-      // A straight segment whose both ends lie on one side of that plane,
-      // well beyond the threshold, has no point near it.
-      const double d0 = x.normal.dot(s.start) - x.offset, d1 = x.normal.dot(s.end) - x.offset;
-      if (d0 * d1 > 0.0 && std::min(std::abs(d0), std::abs(d1)) > 2.0 * thr) continue;
       const int rj = x.region;
       const Region& o = regions_[rj];
+      // A straight segment whose both ends lie on one side of that plane,
+      // well beyond the threshold, has no point near it.
+      const double d0 = o.fit.normal.dot(s.start) - o.fit.offset, d1 = o.fit.normal.dot(s.end) - o.fit.offset;
+      if (d0 * d1 > 0.0 && std::min(std::abs(d0), std::abs(d1)) > 2.0 * thr) continue;
       // Only beside that plane's members on the lines near (a plane goes on
       // forever; the surface does not).
       int lo = s.last + 1, hi = s.first - 1;
@@ -686,10 +694,10 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       // of a point does not move its ray: near the crease the ray tells the
       // planes apart where the points' distances cannot, unless the planes
       // meet the ray within kCreaseMargin of each other (a line right on the
-      // crease, within the planes' own errors: it stays). A beam votes for the other
-      // plane if its ray meets that one clearly first (last) and its point
-      // lies within the threshold of it, against if clearly not; the run
-      // with the most votes net.
+      // crease, within the planes' own errors: it stays). A beam votes for
+      // the other plane if its ray meets that one clearly first (last) and
+      // its point lies within the threshold of it, against if clearly not;
+      // the run with the most votes net.
       double run = 0.0;
       int run_first = lo;
       const double ha = fa.offset - fa.normal.dot(s.origin), hb = o.fit.offset - o.fit.normal.dot(s.origin);
@@ -726,8 +734,8 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       best.first = s.first;
       best.last = s.last;
     }
-    Segment3 piece;  // its range: the segment's (it only sets thresholds)
-    if (!fillSegment3(*pts, [&](int) { return s.range; }, s.line, best.first, best.last, piece)) continue;
+    Segment3 piece;
+    if (!pieceOf(s, *pts, best.first, best.last, piece)) continue;
     const Region& o = regions_[best.to];
     if (std::abs(o.fit.normal.dot(piece.moments.mean()) - o.fit.offset) >
         std::max(p_.centroid_min, p_.centroid_ratio * s.range))
@@ -758,10 +766,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     const std::pair<int, int> spans[3] = {{s.first, cut.first - 1}, {cut.first, cut.last}, {cut.last + 1, s.last}};
     for (int k = 0; k < 3; ++k) {
       Segment3 piece;
-      if (spans[k].second < spans[k].first ||
-          !fillSegment3(pts, [&](int) { return s.range; }, s.line, spans[k].first, spans[k].second, piece))
-        continue;
-      piece.origin = s.origin;
+      if (!pieceOf(s, pts, spans[k].first, spans[k].second, piece)) continue;
       out.push_back(piece);
       region.push_back(k == 1 ? cut.to : own);
     }

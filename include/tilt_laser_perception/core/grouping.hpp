@@ -112,8 +112,9 @@ class ScanLineGrouper {
   /// that s fits best; it must overlap a member of the lines near s. -1 for none.
   int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines) const;
   /// Whether two segments of different lines seed a plane (side by side,
-  /// the shorter beside 30 % of the longer or more, near, coplanar); a
-  /// score, lowest for the next line, a whole overlap and a small rms.
+  /// the shorter beside 30 % of the longer or more, near, coplanar, and no
+  /// line between them saw another surface beside them); a score, lowest
+  /// for the next line, a whole overlap and a small rms.
   bool pairs(const Segment3& a, const Segment3& b, double& score) const;
   /// A region of one segment.
   int newRegion(int segment);
@@ -129,13 +130,14 @@ class ScanLineGrouper {
   void removeMember(int region, int segment);  // refits
   /// One pass over the segments on their planes' edges: each goes to a
   /// neighbouring plane it lies nearer to, or, farther than the tolerance
-  /// from its own plane fitted without it, leaves that plane (each segment
-  /// moves once); true when one moved.
+  /// from its own plane fitted without it (if the rest still spans a plane),
+  /// leaves that plane (each segment moves once); true when one moved.
   bool moveCreaseSegments(const std::vector<int>& cand, std::vector<char>& moved_once);
   /// A segment that crosses a crease (a line over a yawed box's edge, a
   /// line along a riser's foot) lies on two planes, too gently bent for the
-  /// split to see. Cuts out the run of its points that a neighbouring plane
-  /// explains better than its own, if the gain is well above the noise.
+  /// split to see. Cuts out the run of its beams whose rays meet a
+  /// neighbouring plane clearly first (concave crease) or last (convex),
+  /// eight net votes or more; the whole segment if too little would stay.
   void cutAtCreases(const std::vector<int>& cand, const LinePoints& points);
   void buildPolygon(const Region& r, Plane& out) const;
 
