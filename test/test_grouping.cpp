@@ -287,6 +287,27 @@ TEST(Grouping, ALineCutInPiecesPairsByItsLongestPiece) {
   EXPECT_NEAR(std::abs(planes[0].fit.normal.x()), 1.0, 1e-9);
 }
 
+TEST(Grouping, ALineBesideALineTheSplitBrokeInPiecesPairsWithTheRun) {
+  // A riser x = 1.4 crossed by two lines, z = 0.05 and z = z2. The split
+  // broke the second line at outliers into four pieces end to end, each
+  // beside a quarter of the first line (under the 30 % a seed asks): no
+  // piece pairs, but the run of them does, if the two lines span a plane
+  // (5 cm apart; 1.5 cm is a strip that fixes no normal).
+  const auto riser = [](double z2) {
+    std::vector<Segment3> second;
+    for (int k = 0; k < 4; ++k)
+      second.push_back(seg(1, 100 + 35 * k, {1.4, -0.6 + 0.3 * k, z2}, {1.4, -0.6 + 0.3 * k + 0.29, z2}, 35));
+    return std::vector<std::vector<Segment3>>{{seg(0, 100, {1.4, -0.6, 0.05}, {1.4, 0.6, 0.05}, 140)}, second};
+  };
+  ScanLineGrouper g;
+  const auto planes = group(riser(0.10), g);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_EQ(planes[0].points, 280);
+  EXPECT_EQ(planes[0].segments, 5);
+  EXPECT_NEAR(std::abs(planes[0].fit.normal.x()), 1.0, 1e-9);
+  EXPECT_TRUE(group(riser(0.065), g).empty());
+}
+
 TEST(Grouping, ARiserLinePairsWithTheNextRiserLineNotWithAShortPieceBeforeIt) {
   // A riser x = 1.4 crossed by two lines (z 0.05, 0.10). The line before
   // left a short piece at the riser's foot, 3 cm behind it (12 points, under

@@ -340,6 +340,44 @@ void ScanLineGrouper::settlePairs() {
     }
     if (best >= 0) absorb(best, ri);
   }
+  pairBrokenLines();
+}
+
+void ScanLineGrouper::pairBrokenLines() {
+  // A lone line beside a line that the split broke into pieces at outliers
+  // (a riser seen by two lines): no piece lies beside enough of it to seed,
+  // but the run of lone pieces end to end in beam order does.
+  const auto lone = [&](std::size_t si) {
+    const int ri = seg_region_[si];
+    return ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() == 1 && segs_[si].moments.n >= p_.min_points;
+  };
+  for (std::size_t ti = 0; ti < segs_.size(); ++ti) {
+    if (!lone(ti)) continue;
+    const Segment3& t = segs_[ti];
+    std::size_t si = ti + 1;
+    while (si < segs_.size() && segs_[si].line == t.line) ++si;
+    while (si < segs_.size() && segs_[si].line == t.line + 1) {
+      // A run of lone pieces beside t, each starting where the last ended.
+      const std::size_t run0 = si;
+      int covered = 0;
+      Moments3 m = t.moments;
+      for (; si < segs_.size() && segs_[si].line == t.line + 1; ++si) {
+        const Segment3& q = segs_[si];
+        if (!lone(si) || q.first > t.last || q.last < t.first || !near(t, q, p_.seed_gap + 0.05 * q.range) ||
+            (si > run0 && q.first > segs_[si - 1].last + p_.beam_slack))
+          break;
+        covered += std::min(q.last, t.last) - std::max(q.first, t.first) + 1;
+        m += q.moments;
+      }
+      const std::size_t run1 = si;
+      if (run1 == run0) ++si;  // not a piece of a run: the next
+      if (run1 - run0 < 2 || covered < kMinSeedOverlap * (t.last - t.first + 1)) continue;
+      const PlaneFit f = fitPlane(m);
+      if (f.rms > 0.5 * p_.threshold(t.range) || f.spread(1) <= kPlanarSpread) continue;
+      for (std::size_t k = run0; k < run1; ++k) absorb(seg_region_[ti], seg_region_[k]);
+      break;
+    }
+  }
 }
 
 void ScanLineGrouper::removeMember(int region, int si) {

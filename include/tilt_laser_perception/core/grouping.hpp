@@ -121,6 +121,10 @@ class ScanLineGrouper {
   /// Pairs that a confirmed plane explains better are taken apart; then
   /// segments left alone pair with a neighbour of an adjacent line.
   void settlePairs();
+  /// A lone segment and a run of lone pieces of the next line, end to end
+  /// in beam order (a line the split broke at outliers), seed a plane when
+  /// together they lie beside 30 % of it, fit one plane and span it.
+  void pairBrokenLines();
   /// The members of r on lines [line_lo, line_hi].
   std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> membersIn(const Region& r, int line_lo,
                                                                                          int line_hi) const;
