@@ -486,6 +486,49 @@ TEST(Grouping, ALineAlongARisersFootIsCutWhereItsRaysMeetTheRiser) {
   }
 }
 
+TEST(Grouping, AFewFloorBeamsAtAWallsFootAreCutOff) {
+  // A wall x = 1.5 on a floor z = 0, seen from 1.5 m up. One line runs
+  // obliquely down to the wall's foot (aimed from x = 1.485 to 1.56 across
+  // its beams): its first 12 beams hit the floor within 1.5 cm of the wall,
+  // too gentle a bend for the split, and the wall takes the whole segment.
+  // The rays of beams 0..6 meet the floor 1 cm or more before the wall's
+  // plane (beams 7..11 are within that margin and stay): seven beams, a
+  // piece of their own for the floor.
+  const Eigen::Vector3d o(0, 0, 1.5);
+  std::vector<std::vector<Eigen::Vector3f>> points;
+  std::vector<std::vector<Segment3>> lines;
+  const auto addLine = [&](const std::function<double(int)>& aim) {
+    std::vector<Eigen::Vector3f> pts;
+    std::vector<float> ranges;
+    for (int b = 0; b <= 60; ++b) {
+      const Eigen::Vector3d d = Eigen::Vector3d(aim(b), -0.3 + 0.01 * b, 0.0) - o;
+      const Eigen::Vector3d p = o + (d.x() < 1.5 ? 1.0 : 1.5 / d.x()) * d;
+      pts.push_back(p.cast<float>());
+      ranges.push_back(static_cast<float>((p - o).norm()));
+    }
+    Segment3 s;
+    ASSERT_TRUE(makeSegment3(pts, ranges, static_cast<int>(lines.size()), 0, 60, s));
+    s.origin = o;
+    points.push_back(pts);
+    lines.push_back({s});
+  };
+  for (const double a : {1.2, 1.3, 1.4}) addLine([a](int) { return a; });
+  addLine([](int b) { return 1.485 + 0.00125 * b; });
+  for (const double a : {1.6, 1.7, 1.8}) addLine([a](int) { return a; });
+  ScanLineGrouper g;
+  g.reset(o);
+  for (const auto& l : lines) g.addLine(l);
+  std::vector<Plane> planes;
+  g.finish(planes, [&](int line) { return &points[line]; });
+  ASSERT_EQ(planes.size(), 2u);
+  const Plane& floor = std::abs(planes[0].fit.normal.z()) > 0.99 ? planes[0] : planes[1];
+  const Plane& wall = &floor == &planes[0] ? planes[1] : planes[0];
+  EXPECT_NEAR(std::abs(wall.fit.normal.x()), 1.0, 1e-3);
+  EXPECT_EQ(floor.points, 3 * 61 + 7);
+  EXPECT_EQ(wall.points, 3 * 61 + 54);
+  EXPECT_NEAR(floor.fit.offset, 0.0, 1e-5);
+}
+
 TEST(Grouping, ATreadsFirstLineThatTheRiserKeptGoesWholeToTheTread) {
   // scanStep's step: riser lines at z 0.067, 0.111, 0.141; the next line
   // meets the tread 8 mm behind the nose, within the riser's tolerance, and

@@ -21,6 +21,10 @@ constexpr double kMinSeedOverlap = 0.3;
 /// Where two planes meet a beam's ray within this of each other, the ray
 /// does not tell which surface it hit [m].
 constexpr double kCreaseMargin = 0.01;
+/// A crease cut takes a run of beams with at least this many votes net (a
+/// line's few floor points at a box side's foot: seeds 1-20 and 21-40 one
+/// more face each than with 8, nothing lost).
+constexpr double kMinCutVotes = 4.0;
 
 /// Area of a polygon given in the plane (u, v) coordinates of a fit.
 double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
@@ -676,7 +680,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     near_own.n = -1.0;  // not summed yet
     const double thr = p_.threshold(s.range);
     Cut best{-1, 0, 0, -1};
-    double best_votes = p_.min_points - 0.5;
+    double best_votes = kMinCutVotes - 0.5;
     for (const Other& x : others) {
       if (x.region == ri || s.line < x.line_lo || s.line > x.line_hi || s.last < x.beam_lo || s.first > x.beam_hi)
         continue;

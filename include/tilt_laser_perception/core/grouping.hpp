@@ -141,7 +141,8 @@ class ScanLineGrouper {
   /// line along a riser's foot) lies on two planes, too gently bent for the
   /// split to see. Cuts out the run of its beams whose rays meet a
   /// neighbouring plane clearly first (concave crease) or last (convex),
-  /// eight net votes or more; the whole segment if too little would stay.
+  /// four net votes or more; the whole segment if fewer than min_points
+  /// points would stay.
   void cutAtCreases(const std::vector<int>& cand, const LinePoints& points);
   void buildPolygon(const Region& r, Plane& out) const;
 
