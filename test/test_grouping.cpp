@@ -529,6 +529,36 @@ TEST(Grouping, AFewFloorBeamsAtAWallsFootAreCutOff) {
   EXPECT_NEAR(floor.fit.offset, 0.0, 1e-5);
 }
 
+TEST(Grouping, ARiserSeenByALineAndByTheFloorsLineAlongItsFootIsFound) {
+  // scanStep's step, its riser crossed by two lines only: one 2 cm above its
+  // foot, one segment with the floor (the split sees no bend), and one at
+  // 6.7 cm, alone. No pair to seed the riser; the foot line's beams beside
+  // the lone line span a plane with it, their rays meet that plane before
+  // the floor's: they are cut out, and the riser is found.
+  const StepScan scan = scanStep({1.30, 1.35, 1.40, 1.45, 1.52, 1.57, 1.72, 1.77, 1.82, 1.87});
+  for (const bool with_points : {false, true}) {
+    ScanLineGrouper g;
+    g.reset(kStepSensor);
+    for (const auto& l : scan.lines) g.addLine(l);
+    std::vector<Plane> planes;
+    if (with_points)
+      g.finish(planes, [&](int line) { return &scan.points[line]; });
+    else
+      g.finish(planes);
+    const Plane* riser = nullptr;
+    for (const auto& p : planes)
+      if (std::abs(p.fit.normal.x()) > 0.99) riser = &p;
+    if (!with_points) {
+      EXPECT_EQ(riser, nullptr);
+      continue;
+    }
+    ASSERT_NE(riser, nullptr);
+    EXPECT_EQ(riser->points, 2 * 61);
+    EXPECT_NEAR(riser->fit.offset * riser->fit.normal.x(), 1.5, 1e-4);
+    EXPECT_EQ(planes.size(), 3u);
+  }
+}
+
 TEST(Grouping, ATreadsFirstLineThatTheRiserKeptGoesWholeToTheTread) {
   // scanStep's step: riser lines at z 0.067, 0.111, 0.141; the next line
   // meets the tread 8 mm behind the nose, within the riser's tolerance, and

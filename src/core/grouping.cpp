@@ -25,6 +25,11 @@ constexpr double kCreaseMargin = 0.01;
 /// line's few floor points at a box side's foot: seeds 1-20 and 21-40 one
 /// more face each than with 8, nothing lost).
 constexpr double kMinCutVotes = 4.0;
+/// A run of a plane's segment cut out to seed a plane with a lone segment
+/// of the next line lies beside this much of it at least: both lines cross
+/// the same face (a riser), not a corner (short pieces at a box's corner
+/// span small tilted planes).
+constexpr double kMinLoneCover = 0.8;
 
 /// Area of a polygon given in the plane (u, v) coordinates of a fit.
 double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
@@ -680,7 +685,80 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     near_own.n = -1.0;  // not summed yet
     const double thr = p_.threshold(s.range);
     Cut best{-1, 0, 0, -1};
+    PlaneFit best_fit;
     double best_votes = kMinCutVotes - 0.5;
+    const auto loadPoints = [&] {
+      if (!pts) {
+        pts = points(s.line);
+        if (!pts || static_cast<int>(pts->size()) <= s.last) return false;
+        Moments3 rest = own.moments;
+        rest -= s.moments;
+        fa = own.lines > 2 ? fitPlane(rest) : own.fit;
+      }
+      return true;
+    };
+    // Votes s's beams lo..hi between its own plane and `of` (the plane of
+    // region `to`, whose members near s sum to near_other); a run needs
+    // min_votes net. False when the line's points are missing.
+    const auto vote = [&](const PlaneFit& of, const Moments3& near_other, int lo, int hi, int to, double min_votes) {
+      // The crease between the planes: convex (a box's edge) when each
+      // plane's members near it lie behind the other plane, as seen from the
+      // sensor; concave (a riser's foot) when in front. Not clear by the
+      // tolerance: no crease to cut at.
+      if (near_own.n < 0.0) {  // the same for every other plane: summed once
+        near_own = Moments3();
+        const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+        for (auto mi = a0; mi != a1; ++mi)
+          if (*mi != static_cast<int>(si)) near_own += segs_[*mi].moments;
+      }
+      if (near_own.n < p_.min_points) return true;
+      const auto inFront = [&](const PlaneFit& f, const Eigen::Vector3d& x) {
+        const double d = f.normal.dot(x) - f.offset;
+        return f.normal.dot(s.origin) > f.offset ? d : -d;  // normal turned to the sensor
+      };
+      const double side = inFront(of, near_own.mean()) + inFront(own.fit, near_other.mean());
+      const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+      if (std::abs(side) < tol) return true;
+      const bool convex = side < 0.0;
+      if (!loadPoints()) return false;
+      // Each beam's ray meets both planes; the surface is the farther of the
+      // two at a convex crease, the nearer at a concave one. The range noise
+      // of a point does not move its ray: near the crease the ray tells the
+      // planes apart where the points' distances cannot, unless the planes
+      // meet the ray within kCreaseMargin of each other (a line right on the
+      // crease, within the planes' own errors: it stays). A beam votes for
+      // the other plane if its ray meets that one clearly first (last) and
+      // its point lies within the threshold of it, against if clearly not;
+      // the run with the most votes net.
+      double run = 0.0;
+      int run_first = lo;
+      const double floor_votes = std::max(best_votes, min_votes - 0.5);
+      const double ha = fa.offset - fa.normal.dot(s.origin), hb = of.offset - of.normal.dot(s.origin);
+      for (int i = lo; i <= hi; ++i) {
+        const Eigen::Vector3f& q = (*pts)[i];
+        if (!std::isfinite(q.x())) continue;
+        const Eigen::Vector3d ray = q.cast<double>() - s.origin;
+        const double r = ray.norm();
+        const double ta = ha / fa.normal.dot(ray), tb = hb / of.normal.dot(ray);  // along the ray, 1 at the point
+        double v = -1.0;
+        if (std::isfinite(ta) && std::isfinite(tb) && ta > 0.0 && tb > 0.0 && std::abs(1.0 - tb) * r <= thr) {
+          const double lead = (convex ? tb - ta : ta - tb) * r;  // [m], > 0: the other plane's
+          v = lead > kCreaseMargin ? 1.0 : lead < -kCreaseMargin ? -1.0 : -0.25;
+        }
+        if (run <= 0.0) {
+          run = 0.0;
+          run_first = i;
+        }
+        run += v;
+        if (run > floor_votes && run > best_votes) {
+          best = {static_cast<int>(si), run_first, i, to};
+          best_fit = of;
+          best_votes = run;
+        }
+      }
+      return true;
+    };
+    bool have_points = true;
     for (const Other& x : others) {
       if (x.region == ri || s.line < x.line_lo || s.line > x.line_hi || s.last < x.beam_lo || s.first > x.beam_hi)
         continue;
@@ -703,66 +781,35 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       lo = std::max(lo, s.first);
       hi = std::min(hi, s.last);
       if (hi - lo + 1 < p_.min_points) continue;
-      // The crease between the planes: convex (a box's edge) when each
-      // plane's members near it lie behind the other plane, as seen from the
-      // sensor; concave (a riser's foot) when in front. Not clear by the
-      // tolerance: no crease to cut at.
-      if (near_own.n < 0.0) {  // the same for every other plane: summed once
-        near_own = Moments3();
-        const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
-        for (auto mi = a0; mi != a1; ++mi)
-          if (*mi != static_cast<int>(si)) near_own += segs_[*mi].moments;
-      }
       Moments3 near_other;
       for (auto mi = m0; mi != m1; ++mi) near_other += segs_[*mi].moments;
-      if (near_own.n < p_.min_points) continue;
-      const auto inFront = [&](const PlaneFit& f, const Eigen::Vector3d& x) {
-        const double d = f.normal.dot(x) - f.offset;
-        return f.normal.dot(s.origin) > f.offset ? d : -d;  // normal turned to the sensor
-      };
-      const double side = inFront(o.fit, near_own.mean()) + inFront(own.fit, near_other.mean());
-      const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
-      if (std::abs(side) < tol) continue;
-      const bool convex = side < 0.0;
-      if (!pts) {
-        pts = points(s.line);
-        if (!pts || static_cast<int>(pts->size()) <= s.last) break;
-        Moments3 rest = own.moments;
-        rest -= s.moments;
-        fa = own.lines > 2 ? fitPlane(rest) : own.fit;
-      }
-      // Each beam's ray meets both planes; the surface is the farther of the
-      // two at a convex crease, the nearer at a concave one. The range noise
-      // of a point does not move its ray: near the crease the ray tells the
-      // planes apart where the points' distances cannot, unless the planes
-      // meet the ray within kCreaseMargin of each other (a line right on the
-      // crease, within the planes' own errors: it stays). A beam votes for
-      // the other plane if its ray meets that one clearly first (last) and
-      // its point lies within the threshold of it, against if clearly not;
-      // the run with the most votes net.
-      double run = 0.0;
-      int run_first = lo;
-      const double ha = fa.offset - fa.normal.dot(s.origin), hb = o.fit.offset - o.fit.normal.dot(s.origin);
-      for (int i = lo; i <= hi; ++i) {
-        const Eigen::Vector3f& q = (*pts)[i];
-        if (!std::isfinite(q.x())) continue;
-        const Eigen::Vector3d ray = q.cast<double>() - s.origin;
-        const double r = ray.norm();
-        const double ta = ha / fa.normal.dot(ray), tb = hb / o.fit.normal.dot(ray);  // along the ray, 1 at the point
-        double vote = -1.0;
-        if (std::isfinite(ta) && std::isfinite(tb) && ta > 0.0 && tb > 0.0 && std::abs(1.0 - tb) * r <= thr) {
-          const double lead = (convex ? tb - ta : ta - tb) * r;  // [m], > 0: the other plane's
-          vote = lead > kCreaseMargin ? 1.0 : lead < -kCreaseMargin ? -1.0 : -0.25;
-        }
-        if (run <= 0.0) {
-          run = 0.0;
-          run_first = i;
-        }
-        run += vote;
-        if (run > best_votes) {
-          best = {static_cast<int>(si), run_first, i, rj};
-          best_votes = run;
-        }
+      if (!(have_points = vote(o.fit, near_other, lo, hi, rj, kMinCutVotes))) break;
+    }
+    if (!have_points) continue;
+    // A lone segment of the next or the line before, and this segment's
+    // beams beside it, may span a plane of their own: a riser crossed by two
+    // lines, the lower along its foot, which the floor's segment took (too
+    // gentle a bend for the split). That plane is tried as the other one; a
+    // run beside 30 % of the lone segment or more seeds it.
+    for (int dl : {-1, 1}) {
+      auto it = std::lower_bound(segs_.begin(), segs_.end(), s.line + dl,
+                                 [](const Segment3& t, int line) { return t.line < line; });
+      for (; it != segs_.end() && it->line == s.line + dl; ++it) {
+        const Segment3& t = *it;
+        const int rt = seg_region_[it - segs_.begin()];
+        if (rt < 0 || regions_[rt].dead || regions_[rt].members.size() != 1 || t.moments.n < 2 * p_.min_points)
+          continue;
+        const int lo = std::max(s.first, t.first), hi = std::min(s.last, t.last);
+        const double min_run = std::max<double>(p_.min_points, kMinLoneCover * (t.last - t.first + 1));
+        if (hi - lo + 1 < min_run || !loadPoints()) continue;
+        Moments3 m = t.moments;
+        for (int i = lo; i <= hi; ++i)
+          if (std::isfinite((*pts)[i].x())) m.add((*pts)[i].cast<double>());
+        const PlaneFit h = fitPlane(m);
+        if (h.rms > 0.5 * p_.threshold(t.range) || h.spread(1) <= kPlanarSpread ||
+            std::abs(h.normal.dot(own.fit.normal)) > std::cos(p_.merge_angle_deg * kDeg))
+          continue;
+        vote(h, t.moments, lo, hi, rt, min_run);
       }
     }
     if (best.seg < 0) continue;
@@ -778,8 +825,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     }
     Segment3 piece;
     if (!pieceOf(s, *pts, best.first, best.last, piece)) continue;
-    const Region& o = regions_[best.to];
-    if (std::abs(o.fit.normal.dot(piece.moments.mean()) - o.fit.offset) >
+    if (std::abs(best_fit.normal.dot(piece.moments.mean()) - best_fit.offset) >
         std::max(p_.centroid_min, p_.centroid_ratio * s.range))
       continue;
     cuts.push_back(best);

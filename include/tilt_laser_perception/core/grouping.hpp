@@ -142,7 +142,9 @@ class ScanLineGrouper {
   /// split to see. Cuts out the run of its beams whose rays meet a
   /// neighbouring plane clearly first (concave crease) or last (convex),
   /// four net votes or more; the whole segment if fewer than min_points
-  /// points would stay.
+  /// points would stay. A lone segment of the next or the line before and
+  /// the beams beside it may also span such a plane (a riser crossed by one
+  /// line and by the floor's line along its foot): cut out, they seed it.
   void cutAtCreases(const std::vector<int>& cand, const LinePoints& points);
   void buildPolygon(const Region& r, Plane& out) const;
 
