@@ -799,6 +799,10 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
         const int rt = seg_region_[it - segs_.begin()];
         if (rt < 0 || regions_[rt].dead || regions_[rt].members.size() != 1 || t.moments.n < 2 * p_.min_points)
           continue;
+        // On this segment's plane it would span that plane again.
+        if (std::abs(own.fit.normal.dot(t.moments.mean()) - own.fit.offset) <=
+            std::max(p_.centroid_min, p_.centroid_ratio * t.range))
+          continue;
         const int lo = std::max(s.first, t.first), hi = std::min(s.last, t.last);
         const double min_run = std::max<double>(p_.min_points, kMinLoneCover * (t.last - t.first + 1));
         if (hi - lo + 1 < min_run || !loadPoints()) continue;
