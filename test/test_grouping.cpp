@@ -112,6 +112,19 @@ StepScan scanStep(const std::vector<double>& aims) {
   return out;
 }
 
+
+/// Groups a ray-cast scan, with its lines' points (for the crease cut) or without.
+std::vector<Plane> groupScan(const StepScan& scan, bool with_points, ScanLineGrouper& g,
+                             const Eigen::Vector3d& sensor = kStepSensor) {
+  g.reset(sensor);
+  for (const auto& l : scan.lines) g.addLine(l);
+  std::vector<Plane> planes;
+  if (with_points)
+    g.finish(planes, [&](int line) { return &scan.points[line]; });
+  else
+    g.finish(planes);
+  return planes;
+}
 }  // namespace
 
 TEST(Moments3, TransformIsExact) {
@@ -447,19 +460,10 @@ TEST(Grouping, ALineAlongARisersFootIsCutWhereItsRaysMeetTheRiser) {
   // foot: too gentle a bend for the split, one segment of floor and riser
   // points that the floor takes. Its rays meet the riser's plane before the
   // floor's (a concave crease): beams 30..90 go to the riser.
-  const Eigen::Vector3d o = kStepSensor;
   const StepScan scan = scanStep({1.30, 1.35, 1.40, 1.45, 1.52, 1.57, 1.62, 1.72, 1.77, 1.82, 1.87});
-  const auto& points = scan.points;
-  const auto& lines = scan.lines;
   for (const bool with_points : {false, true}) {
     ScanLineGrouper g;
-    g.reset(o);
-    for (const auto& l : lines) g.addLine(l);
-    std::vector<Plane> planes;
-    if (with_points)
-      g.finish(planes, [&](int line) { return &points[line]; });
-    else
-      g.finish(planes);
+    const std::vector<Plane> planes = groupScan(scan, with_points, g);
     ASSERT_EQ(planes.size(), 3u);
     const Plane* riser = nullptr;
     const Plane* floor = nullptr;
@@ -495,8 +499,7 @@ TEST(Grouping, AFewFloorBeamsAtAWallsFootAreCutOff) {
   // plane (beams 7..11 are within that margin and stay): seven beams, a
   // piece of their own for the floor.
   const Eigen::Vector3d o(0, 0, 1.5);
-  std::vector<std::vector<Eigen::Vector3f>> points;
-  std::vector<std::vector<Segment3>> lines;
+  StepScan scan;
   const auto addLine = [&](const std::function<double(int)>& aim) {
     std::vector<Eigen::Vector3f> pts;
     std::vector<float> ranges;
@@ -507,19 +510,16 @@ TEST(Grouping, AFewFloorBeamsAtAWallsFootAreCutOff) {
       ranges.push_back(static_cast<float>((p - o).norm()));
     }
     Segment3 s;
-    ASSERT_TRUE(makeSegment3(pts, ranges, static_cast<int>(lines.size()), 0, 60, s));
+    ASSERT_TRUE(makeSegment3(pts, ranges, static_cast<int>(scan.lines.size()), 0, 60, s));
     s.origin = o;
-    points.push_back(pts);
-    lines.push_back({s});
+    scan.points.push_back(pts);
+    scan.lines.push_back({s});
   };
   for (const double a : {1.2, 1.3, 1.4}) addLine([a](int) { return a; });
   addLine([](int b) { return 1.485 + 0.00125 * b; });
   for (const double a : {1.6, 1.7, 1.8}) addLine([a](int) { return a; });
   ScanLineGrouper g;
-  g.reset(o);
-  for (const auto& l : lines) g.addLine(l);
-  std::vector<Plane> planes;
-  g.finish(planes, [&](int line) { return &points[line]; });
+  const std::vector<Plane> planes = groupScan(scan, true, g, o);
   ASSERT_EQ(planes.size(), 2u);
   const Plane& floor = std::abs(planes[0].fit.normal.z()) > 0.99 ? planes[0] : planes[1];
   const Plane& wall = &floor == &planes[0] ? planes[1] : planes[0];
@@ -538,13 +538,7 @@ TEST(Grouping, ARiserSeenByALineAndByTheFloorsLineAlongItsFootIsFound) {
   const StepScan scan = scanStep({1.30, 1.35, 1.40, 1.45, 1.52, 1.57, 1.72, 1.77, 1.82, 1.87});
   for (const bool with_points : {false, true}) {
     ScanLineGrouper g;
-    g.reset(kStepSensor);
-    for (const auto& l : scan.lines) g.addLine(l);
-    std::vector<Plane> planes;
-    if (with_points)
-      g.finish(planes, [&](int line) { return &scan.points[line]; });
-    else
-      g.finish(planes);
+    const std::vector<Plane> planes = groupScan(scan, with_points, g);
     const Plane* riser = nullptr;
     for (const auto& p : planes)
       if (std::abs(p.fit.normal.x()) > 0.99) riser = &p;
@@ -571,13 +565,7 @@ TEST(Grouping, ATreadsFirstLineThatTheRiserKeptGoesWholeToTheTread) {
   const StepScan scan = scanStep({1.30, 1.35, 1.40, 1.45, 1.57, 1.62, 1.655, 1.6756, 0.0, 1.77, 1.82, 1.87, 1.92});
   for (const bool with_points : {false, true}) {
     ScanLineGrouper g;
-    g.reset(kStepSensor);
-    for (const auto& l : scan.lines) g.addLine(l);
-    std::vector<Plane> planes;
-    if (with_points)
-      g.finish(planes, [&](int line) { return &scan.points[line]; });
-    else
-      g.finish(planes);
+    const std::vector<Plane> planes = groupScan(scan, with_points, g);
     int nose_plane = -2;
     for (std::size_t si = 0; si < g.segments().size(); ++si)
       if (g.segments()[si].line == 7 && g.segments()[si].first == 30) nose_plane = g.segmentPlane()[si];

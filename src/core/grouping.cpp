@@ -732,7 +732,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       // the run with the most votes net.
       double run = 0.0;
       int run_first = lo;
-      const double floor_votes = std::max(best_votes, min_votes - 0.5);
+      const double need = std::max(best_votes, min_votes - 0.5);
       const double ha = fa.offset - fa.normal.dot(s.origin), hb = of.offset - of.normal.dot(s.origin);
       for (int i = lo; i <= hi; ++i) {
         const Eigen::Vector3f& q = (*pts)[i];
@@ -750,7 +750,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
           run_first = i;
         }
         run += v;
-        if (run > floor_votes && run > best_votes) {
+        if (run > need && run > best_votes) {
           best = {static_cast<int>(si), run_first, i, to};
           best_fit = of;
           best_votes = run;
@@ -790,7 +790,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     // beams beside it, may span a plane of their own: a riser crossed by two
     // lines, the lower along its foot, which the floor's segment took (too
     // gentle a bend for the split). That plane is tried as the other one; a
-    // run beside 30 % of the lone segment or more seeds it.
+    // run beside kMinLoneCover of the lone segment or more seeds it.
     for (int dl : {-1, 1}) {
       auto it = std::lower_bound(segs_.begin(), segs_.end(), s.line + dl,
                                  [](const Segment3& t, int line) { return t.line < line; });
