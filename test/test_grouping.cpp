@@ -678,6 +678,13 @@ void drive(SweepAssembler& a, const std::function<double(double)>& q_at, double 
   }
 }
 
+/// Sweep parameters for the short test sweeps (3 lines make a sweep).
+SweepParams shortSweeps() {
+  SweepParams p;
+  p.min_lines = 3;
+  return p;
+}
+
 // Triangle tilt: 0.2 -> 0.8 rad in 0.6 s, then back.
 double triangle(double t) {
   const double ph = std::fmod(t, 1.2);
@@ -695,8 +702,7 @@ void expectLinesInTheirSweeps(const std::vector<SweepResult>& sweeps) {
 
 std::vector<SweepResult> runTriangle(double max_dropped_fraction, SweepCounters* counters,
                                      SweepAssembler::BasePose base_pose = nullptr) {
-  SweepParams p;
-  p.min_lines = 3;
+  SweepParams p = shortSweeps();
   p.max_dropped_fraction = max_dropped_fraction;
   TiltChain chain;
   chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
@@ -730,10 +736,7 @@ TEST(SweepAssembler, ALineJustAfterAReversalWaitsToKnowItsSweep) {
   // each extreme, while the line that starts at the extreme is covered by
   // joint states and arrives 25 ms after it. Put in 3D at once it would join
   // the sweep that ends before its middle; it waits for the reversal.
-  SweepParams p;
-  p.min_lines = 3;
-  TiltChain chain;
-  SweepAssembler a(p, chain);
+  SweepAssembler a(shortSweeps(), TiltChain());
   std::vector<SweepResult> sweeps;
   drive(a, [](double t) { return 0.5 - 0.3 * std::cos(M_PI * t / 0.6); }, 3.0, 0.0, &sweeps);
   ASSERT_EQ(sweeps.size(), 3u);  // 0.6-1.2, 1.2-1.8, 1.8-2.4
@@ -842,10 +845,7 @@ TEST(SequenceGaps, CountsMissedMessagesAndRestarts) {
 TEST(SweepAssembler, StartsAgainWhenTheClockGoesBack) {
   // A 3 s recording played twice in a row (rosbag play --loop): the second
   // pass is assembled like the first, not dropped as out of order.
-  SweepParams p;
-  p.min_lines = 3;
-  TiltChain chain;
-  SweepAssembler a(p, chain);
+  SweepAssembler a(shortSweeps(), TiltChain());
   std::vector<SweepResult> sweeps;
   drive(a, triangle, 3.0, 0.0, &sweeps);
   drive(a, triangle, 3.0, 3.0, &sweeps);
@@ -859,8 +859,7 @@ TEST(SweepAssembler, StartsAgainWhenTheClockGoesBack) {
 TEST(SweepAssembler, DropsASweepThatNeverEndsInsteadOfGrowing) {
   // The head stops mid-sweep (the servo's torque went off): no reversal comes.
   // Found by the soak (scripts/soak.py): memory grew by 0.7 MB/s.
-  SweepParams p;
-  p.min_lines = 3;
+  SweepParams p = shortSweeps();
   p.max_lines = 100;
   SweepAssembler a(p, TiltChain());
   std::size_t most = 0;
