@@ -119,7 +119,8 @@ class ScanLineGrouper {
   /// A region of one segment.
   int newRegion(int segment);
   /// Pairs that a confirmed plane explains better are taken apart; then
-  /// segments left alone pair with a neighbour of an adjacent line.
+  /// segments left alone pair with a neighbour of an adjacent line, or with
+  /// the pieces of one (pairBrokenLines).
   void settlePairs();
   /// A lone segment and a run of lone pieces of the next line, end to end
   /// in beam order (a line the split broke at outliers), seed a plane when
