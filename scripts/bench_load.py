@@ -122,7 +122,7 @@ def main():
             g = lambda s, k: float(d.get(s, {}).get(k, "nan"))
             return {"published": g("laser", "scans"),
                     "splitter missed": g("scan splitter", "scans missed upstream (sequence gaps)"),
-                    "grouper missed": g("sweep grouper", "scan lines missed upstream (sequence gaps)"),
+                    "grouper missed": g("sweep grouper", "scans missed upstream (sequence gaps)"),
                     "sweeps": g("sweep grouper", "sweeps published"),
                     "sweeps dropped": g("sweep grouper", "sweeps dropped")}
 

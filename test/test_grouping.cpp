@@ -959,3 +959,94 @@ TEST(SweepAssembler, DropsASweepThatLostTooManyLines) {
   EXPECT_EQ(c.sweeps_dropped, 1u);
   EXPECT_NEAR(sweeps[1].start, 1.8, 0.006);  // the one after it is whole
 }
+
+namespace {
+/// The clean triangle run's sweeps next to one with `inject` called once at
+/// recording time `at` (bad messages among the good ones).
+struct InjectedRun {
+  std::vector<SweepResult> clean, injected;
+  SweepCounters counters;
+};
+InjectedRun runInjected(double at, const std::function<void(SweepAssembler&)>& inject) {
+  InjectedRun r;
+  {
+    SweepAssembler a(shortSweeps(), TiltChain());
+    drive(a, triangle, 3.0, 0.0, &r.clean);
+  }
+  SweepAssembler a(shortSweeps(), TiltChain());
+  bool done = false;
+  drive(a, triangle, 3.0, 0.0, &r.injected, nullptr, [&] {
+    if (!done && g_now >= at) {
+      inject(a);
+      done = true;
+    }
+  });
+  r.counters = a.counters();
+  return r;
+}
+
+void expectSameSweeps(const InjectedRun& r) {
+  ASSERT_EQ(r.injected.size(), r.clean.size());
+  for (std::size_t i = 0; i < r.clean.size(); ++i) {
+    EXPECT_NEAR(r.injected[i].start, r.clean[i].start, 1e-9) << "sweep " << i;
+    EXPECT_NEAR(r.injected[i].end, r.clean[i].end, 1e-9) << "sweep " << i;
+    EXPECT_EQ(r.injected[i].lines.size(), r.clean[i].lines.size()) << "sweep " << i;
+  }
+}
+}  // namespace
+
+TEST(SweepAssembler, ANanJointStateAfterAStampOfZeroDoesNotStallTheReversals) {
+  // Issue 20's stall: {stamp 0, position NaN} reset the tilt tracker and the
+  // NaN became its reference: no reversal was found again. Both halves
+  // alone, and together, now leave the sweeps as they were.
+  const InjectedRun r = runInjected(1.5, [](SweepAssembler& a) {
+    a.addJoint(0.0, std::numeric_limits<double>::quiet_NaN());
+    a.addJoint(1.5025, std::numeric_limits<double>::quiet_NaN());
+    a.addJoint(0.0, 0.3);  // one stamp far back: a bad message, no restart
+  });
+  expectSameSweeps(r);
+  EXPECT_EQ(r.clean.size(), 3u);
+  EXPECT_EQ(r.counters.joints_bad, 2u);
+  EXPECT_EQ(r.counters.time_jumps, 0u);
+  EXPECT_EQ(r.counters.joints_out_of_order, 1u);
+}
+
+TEST(SweepAssembler, ALineWithAnAbsurdTimeIncrementIsDroppedAndHoldsNothingUp) {
+  // time_increment 1 s (or negative, or NaN): the line would wait for joint
+  // states 1000 s ahead and the lines behind it with it (11 real lines were
+  // lost); it is malformed at once.
+  for (const double ti : {1.0, -0.001, std::numeric_limits<double>::quiet_NaN()}) {
+    const InjectedRun r = runInjected(1.3, [ti](SweepAssembler& a) {
+      LineInput in;
+      in.ranges.assign(11, 2.0f);
+      in.angle_min = -0.1;
+      in.angle_increment = 0.02;
+      in.range_min = 0.1;
+      in.range_max = 30;
+      in.stamp = 1.2876;
+      in.time_increment = ti;
+      in.segments = {{0, 10}};
+      a.addLine(in, g_now);
+    });
+    expectSameSweeps(r);
+    EXPECT_EQ(r.counters.lines_bad, 1u) << ti;
+    EXPECT_EQ(r.counters.lines_no_joint, 0u) << ti;
+  }
+}
+
+TEST(SweepAssembler, ALineStampedFarBackIsDroppedNotARestart) {
+  const InjectedRun r = runInjected(2.0, [](SweepAssembler& a) {
+    LineInput in;
+    in.ranges.assign(11, 2.0f);
+    in.angle_min = -0.1;
+    in.angle_increment = 0.02;
+    in.range_min = 0.1;
+    in.range_max = 30;
+    in.stamp = 0.1;
+    in.time_increment = 0.001;
+    a.addLine(in, g_now);
+  });
+  expectSameSweeps(r);
+  EXPECT_EQ(r.counters.time_jumps, 0u);
+  EXPECT_EQ(r.counters.lines_out_of_order, 1u);
+}

@@ -119,13 +119,19 @@ TEST_F(SplitterNodeTest, SplitsGoodScansDropsBadOnesAndKeepsRunning) {
     EXPECT_NEAR(m.zeta, 0.01, 1e-6);
   }
 
-  // Five malformed scans: each is dropped, none is published.
-  std::vector<sensor_msgs::LaserScan> bad(5, cornerScan(2));
+  // Malformed scans: each is dropped, none is published, the nodelet goes on.
+  std::vector<sensor_msgs::LaserScan> bad(9, cornerScan(2));
   bad[0].ranges.clear();                                // empty
   bad[1].intensities.assign(10, 1.0f);                  // sizes differ
   bad[2].angle_increment = 0.0;                         // zero increment
   bad[3].angle_increment = std::nanf("");               // NaN increment
   bad[4].angle_max = bad[4].angle_min + 500 * bad[4].angle_increment;  // inconsistent with 1081 ranges
+  bad[5].time_increment = std::nanf("");                // issue 20: this one aborted the nodelet manager
+  bad[6].time_increment = 1.0;                          // 1080 s per scan
+  bad[7].time_increment = -1e-5;
+  bad[8].ranges.assign(100000, 2.0f);                   // more than ~max_ranges (10000)
+  bad[8].angle_increment = (bad[8].angle_max - bad[8].angle_min) / 99999;
+  bad[8].time_increment = 0.0;
   for (const auto& b : bad) scan_pub_.publish(b);
   scan_pub_.publish(cornerScan(3));  // and a good one after them
   ASSERT_TRUE(waitFor([&] { return segments_.size() == 2; }, 10.0)) << "splitter stopped after bad scans";
@@ -134,12 +140,16 @@ TEST_F(SplitterNodeTest, SplitsGoodScansDropsBadOnesAndKeepsRunning) {
   ros::spinOnce();
   EXPECT_EQ(segments_.size(), 2u);
 
-  ASSERT_TRUE(waitFor([&] { return diagValue("scans dropped") == "5"; }, 10.0))
-      << "diagnostics never counted 5 dropped scans, last: " << diagValue("scans dropped");
+  ASSERT_TRUE(waitFor([&] { return diagValue("scans dropped") == "9"; }, 10.0))
+      << "diagnostics never counted 9 dropped scans, last: " << diagValue("scans dropped");
   std::lock_guard<std::mutex> l(m_);
   EXPECT_EQ(diagValue("scans published"), "2");
-  EXPECT_EQ(diagValue("dropped: empty scan"), "1");
-  EXPECT_EQ(diagValue("dropped: angle_increment zero, negative or not finite"), "2");
+  // by reason, each over the recent window and in total
+  EXPECT_EQ(diagValue("dropped: scan: empty scan"), "1 recent, 1 total");
+  EXPECT_EQ(diagValue("dropped: scan: angle_increment zero, negative or not finite"), "2 recent, 2 total");
+  EXPECT_EQ(diagValue("dropped: scan: time_increment/scan_time not finite, negative or too long"), "3 recent, 3 total");
+  EXPECT_EQ(diagValue("dropped: scan: more ranges than max_ranges"), "1 recent, 1 total");
+  EXPECT_EQ(diagValue("inputs dropped (total)"), "9");
 }
 
 TEST_F(SplitterNodeTest, DynamicReconfigureChangesTheSplit) {

@@ -42,6 +42,8 @@ const char* scanErrorName(ScanError e) {
     case ScanError::BadIncrement: return "angle_increment zero, negative or not finite";
     case ScanError::InconsistentAngles: return "angle_min + (n-1)*angle_increment != angle_max";
     case ScanError::BadRangeLimits: return "range_min/range_max invalid";
+    case ScanError::TooManyRanges: return "more ranges than max_ranges";
+    case ScanError::BadTimeIncrement: return "time_increment/scan_time not finite, negative or too long";
   }
   return "unknown";
 }
@@ -67,8 +69,9 @@ std::string SplitParams::validate() const {
   return s.str();
 }
 
-ScanError checkScan(const ScanView& scan) {
+ScanError checkScan(const ScanView& scan, const ScanLimits& limits) {
   if (scan.size == 0 || scan.ranges == nullptr) return ScanError::Empty;
+  if (scan.size > limits.max_ranges) return ScanError::TooManyRanges;
   if (scan.intensities_size != 0 && scan.intensities_size != scan.size) return ScanError::IntensitySize;
   if (!std::isfinite(scan.angle_increment) || !(scan.angle_increment > 0.0)) return ScanError::BadIncrement;
   if (!std::isfinite(scan.angle_min) || !std::isfinite(scan.angle_max)) return ScanError::InconsistentAngles;
@@ -77,6 +80,10 @@ ScanError checkScan(const ScanView& scan) {
     return ScanError::InconsistentAngles;
   if (!std::isfinite(scan.range_min) || std::isnan(scan.range_max) || !(scan.range_max > scan.range_min))
     return ScanError::BadRangeLimits;
+  const double duration = static_cast<double>(scan.size - 1) * scan.time_increment;
+  if (!std::isfinite(scan.time_increment) || scan.time_increment < 0.0 || !(duration <= limits.max_duration) ||
+      !std::isfinite(scan.scan_time) || scan.scan_time < 0.0 || scan.scan_time > limits.max_duration)
+    return ScanError::BadTimeIncrement;
   return ScanError::None;
 }
 
@@ -100,7 +107,7 @@ ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
   out.segments.clear();
   out.edges.clear();
   out.valid_points = 0;
-  const ScanError err = checkScan(scan);
+  const ScanError err = checkScan(scan, limits_);
   if (err != ScanError::None) return err;
 
   const int n = static_cast<int>(scan.size);

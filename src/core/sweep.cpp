@@ -78,15 +78,36 @@ void SweepAssembler::restart() {
   direction_ = 0;
   have_extreme_ = false;
   last_mid_ = last_joint_t_ = last_line_stamp_ = last_line_added_ = -1e300;
+  joint_jump_ = line_jump_ = std::numeric_limits<double>::quiet_NaN();
   in_sweep_ = false;
   current_ = SweepResult();
   ++counters_.time_jumps;
   warning_ = "time jumped back (a recording looped or restarted): the sweep in progress is dropped, starting again";
 }
 
+SweepAssembler::Jump SweepAssembler::jumpBack(double t, double latest, double& suspect) const {
+  if (!(t < latest - p_.time_jump_back)) {
+    suspect = std::numeric_limits<double>::quiet_NaN();
+    return Jump::None;
+  }
+  // One stamp far back may be a bad message; two in order, near each other, are a new clock.
+  if (std::isnan(suspect) || !(t > suspect && t - suspect < p_.time_jump_back)) {
+    suspect = t;
+    return Jump::Suspect;
+  }
+  suspect = std::numeric_limits<double>::quiet_NaN();
+  return Jump::Restart;
+}
+
 void SweepAssembler::addJoint(double t, double q) {
-  if (t < last_joint_t_ - p_.time_jump_back) restart();
-  if (!joints_.add(t, q)) {
+  if (!std::isfinite(t) || !std::isfinite(q)) {
+    ++counters_.joints_bad;
+    warning_ = "joint state with a time or angle that is not finite: dropped";
+    return;
+  }
+  const Jump jump = jumpBack(t, last_joint_t_, joint_jump_);
+  if (jump == Jump::Restart) restart();
+  if (jump == Jump::Suspect || !joints_.add(t, q)) {
     ++counters_.joints_out_of_order;
     warning_ = "joint state out of order: dropped";
     return;
@@ -120,7 +141,30 @@ void SweepAssembler::addJoint(double t, double q) {
 }
 
 void SweepAssembler::addLine(LineInput line, double arrival) {
-  if (line.stamp < last_line_added_ - p_.time_jump_back) restart();
+  ScanView v;
+  v.ranges = line.ranges.data();
+  v.size = line.ranges.size();
+  v.intensities_size = line.intensities.size();
+  v.angle_min = line.angle_min;
+  v.angle_increment = line.angle_increment;
+  v.angle_max = line.angle_min + (v.size == 0 ? 0.0 : static_cast<double>(v.size - 1) * line.angle_increment);
+  v.range_min = line.range_min;
+  v.range_max = line.range_max;
+  v.time_increment = line.time_increment;
+  const ScanError err = checkScan(v, p_.scan_limits);
+  if (err != ScanError::None || v.size < 2 || !std::isfinite(line.stamp)) {
+    ++counters_.lines_bad;
+    warning_ = std::string("malformed scan line: dropped (") +
+               (err != ScanError::None ? scanErrorName(err) : v.size < 2 ? "fewer than 2 ranges" : "stamp not finite") + ")";
+    return;
+  }
+  const Jump jump = jumpBack(line.stamp, last_line_added_, line_jump_);
+  if (jump == Jump::Suspect) {
+    ++counters_.lines_out_of_order;
+    warning_ = "scan line far before the latest: dropped (a second one in a row restarts)";
+    return;
+  }
+  if (jump == Jump::Restart) restart();
   last_line_added_ = std::max(last_line_added_, line.stamp);
   queue_.emplace_back(std::move(line), arrival);
 }
@@ -159,12 +203,7 @@ bool SweepAssembler::finishSweep(double end, SweepResult& out) {
 
 bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base) {
   const double t0 = cpuNow();
-  const std::size_t n = in.ranges.size();
-  if (n < 2 || !(in.angle_increment > 0.0) || (!in.intensities.empty() && in.intensities.size() != n)) {
-    ++counters_.lines_bad;
-    warning_ = "malformed scan line: dropped";
-    return false;
-  }
+  const std::size_t n = in.ranges.size();  // checked in addLine
   SweepLine line;
   line.stamp = in.stamp;
   line.time_increment = in.time_increment;

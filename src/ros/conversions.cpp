@@ -15,6 +15,8 @@ core::ScanView toScanView(const sensor_msgs::LaserScan& scan) {
   v.angle_increment = scan.angle_increment;
   v.range_min = scan.range_min;
   v.range_max = scan.range_max;
+  v.time_increment = scan.time_increment;
+  v.scan_time = scan.scan_time;
   return v;
 }
 

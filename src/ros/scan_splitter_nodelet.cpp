@@ -16,6 +16,21 @@ ScanSplitterNodelet::~ScanSplitterNodelet() { diagnostics_timer_.stop(); }
 void ScanSplitterNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
+  health_.init(getName(), pnh);
+  core::ScanLimits limits;
+  int max_ranges = static_cast<int>(limits.max_ranges);
+  pnh.param("max_ranges", max_ranges, max_ranges);
+  pnh.param("max_scan_duration", limits.max_duration, limits.max_duration);
+  if (!(max_ranges >= 2 && max_ranges <= 1000000)) {
+    NODELET_ERROR("~max_ranges must be in [2, 1000000], got %d: using 10000", max_ranges);
+    max_ranges = 10000;
+  }
+  if (!(limits.max_duration > 0.0 && limits.max_duration <= 10.0)) {
+    NODELET_ERROR("~max_scan_duration must be in (0, 10] s: using 0.5");
+    limits.max_duration = 0.5;
+  }
+  limits.max_ranges = static_cast<std::size_t>(max_ranges);
+  splitter_.setLimits(limits);
 
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<ScanSplitterConfig>>(reconfigure_mutex_, pnh);
   reconfigure_server_->setCallback(
@@ -41,7 +56,7 @@ void ScanSplitterNodelet::connectCallback() {
   std::lock_guard<std::mutex> lock(mutex_);
   const bool wanted = segments_pub_.getNumSubscribers() > 0 || markers_pub_.getNumSubscribers() > 0;
   if (wanted && !scan_sub_) {
-    gaps_.forgetLast();  // the scans while nobody listened were not lost
+    health_.forgetSequences();  // the scans while nobody listened were not lost
     scan_sub_ = getNodeHandle().subscribe("scan", 10, &ScanSplitterNodelet::scanCallback, this);
     NODELET_DEBUG("output subscribed: subscribing to %s", scan_sub_.getTopic().c_str());
   } else if (!wanted && scan_sub_) {
@@ -82,20 +97,32 @@ void ScanSplitterNodelet::reconfigure(ScanSplitterConfig& config, uint32_t) {
                p.min_points, p.merge ? "on" : "off");
 }
 
-void ScanSplitterNodelet::scanCallback(const sensor_msgs::LaserScanConstPtr& scan) {
+void ScanSplitterNodelet::scanCallback(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
   std::lock_guard<std::mutex> lock(mutex_);
+  try {
+    split(event);
+  } catch (const std::exception& e) {  // never out of a callback: the manager holds the driver and the grouper too
+    ++dropped_;
+    health_.refuse("exception while splitting", e.what());
+  }
+}
+
+void ScanSplitterNodelet::split(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
+  const sensor_msgs::LaserScan& scan = *event.getConstMessage();
   ++received_;
-  if (const unsigned long missed = gaps_.add(scan->header.seq))
+  const double now = InputHealth::now();
+  scans_in_.add(now);
+  if (first_scan_ < 0.0) first_scan_ = now;
+  if (const unsigned long missed = health_.sequence(event.getPublisherName(), scan.header.seq))
     NODELET_WARN_THROTTLE(5.0, "%lu scans missed before seq %u (a full queue upstream, a slow link); %lu so far", missed,
-                          scan->header.seq, gaps_.missed());
+                          scan.header.seq, health_.missedUpstream());
   const auto t0 = std::chrono::steady_clock::now();
-  const core::ScanError err = splitter_.split(toScanView(*scan), result_);
+  const core::ScanError err = splitter_.split(toScanView(scan), result_);
   const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (err != core::ScanError::None) {
     ++dropped_;
-    ++dropped_by_reason_[static_cast<int>(err)];
-    NODELET_WARN_THROTTLE(5.0, "dropped a scan (frame '%s', %zu ranges): %s; %lu dropped so far",
-                          scan->header.frame_id.c_str(), scan->ranges.size(), core::scanErrorName(err), dropped_);
+    health_.refuse(std::string("scan: ") + core::scanErrorName(err),
+                   "frame '" + scan.header.frame_id + "', " + std::to_string(scan.ranges.size()) + " ranges");
     return;
   }
   split_time_sum_ += dt;
@@ -103,32 +130,37 @@ void ScanSplitterNodelet::scanCallback(const sensor_msgs::LaserScanConstPtr& sca
   ++split_count_;
 
   auto msg = boost::make_shared<ScanSegments>();
-  toMsg(result_, splitter_.params(), scan->header, *msg);
+  toMsg(result_, splitter_.params(), scan.header, *msg);
   if (markers_pub_.getNumSubscribers() > 0) {
     auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
     segmentMarkers(*msg, *markers);
     markers_pub_.publish(markers);
   }
   segments_pub_.publish(msg);
+  scans_out_.add(now);
   ++published_;
 }
 
 void ScanSplitterNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (dropped_ > dropped_reported_)
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu bad scans dropped since the last report",
-                  dropped_ - dropped_reported_);
-  else if (!scan_sub_)
-    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "idle: nobody subscribes to the outputs");
-  else
-    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
-  dropped_reported_ = dropped_;
+  const double t = InputHealth::now();
+  core::Health level = core::Health::Ok;
+  std::string why = "idle: nobody subscribes to the outputs";
+  if (scan_sub_) {
+    core::FlowState flow;
+    flow.now = t;
+    flow.first_input = first_scan_;
+    flow.last_input = scans_in_.last();
+    flow.last_output = scans_out_.last();
+    flow.recent_problems = health_.refused().recent(t);
+    level = core::judgeFlow(flow, 5.0, why);
+  }
+  health_.report(stat, level, why);
   stat.add("scans received", received_);
+  stat.add("scans received (last 10 s)", scans_in_.recent(t));
   stat.add("scans published", published_);
+  stat.add("scans published (last 10 s)", scans_out_.recent(t));
   stat.add("scans dropped", dropped_);
-  stat.add("scans missed upstream (sequence gaps)", gaps_.missed());
-  for (int e = 1; e < core::kScanErrorCount; ++e)
-    stat.add(std::string("dropped: ") + core::scanErrorName(static_cast<core::ScanError>(e)), dropped_by_reason_[e]);
   stat.add("split time mean [us]", split_count_ ? 1e6 * split_time_sum_ / split_count_ : 0.0);
   stat.add("split time max [us]", 1e6 * split_time_max_);
   split_time_sum_ = split_time_max_ = 0.0;

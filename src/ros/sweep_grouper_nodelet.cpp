@@ -56,6 +56,43 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("map_max_step_height", map_params_.max_step_height, map_params_.max_step_height);
   pnh.param("map_obstacle_min_height", map_params_.obstacle_min_height, map_params_.obstacle_min_height);
   pnh.param("map_veil_angle_deg", map_params_.veil_angle_deg, map_params_.veil_angle_deg);
+  int max_ranges = static_cast<int>(sweep_params_.scan_limits.max_ranges);
+  pnh.param("max_ranges", max_ranges, max_ranges);
+  pnh.param("max_scan_duration", sweep_params_.scan_limits.max_duration, sweep_params_.scan_limits.max_duration);
+  pnh.param("max_stamp_age", stamp_limits_.max_age, stamp_limits_.max_age);
+  pnh.param("max_stamp_ahead", stamp_limits_.max_ahead, stamp_limits_.max_ahead);
+  pnh.param("stale_after", stale_after_, stale_after_);
+  if (!(max_ranges >= 2 && max_ranges <= 1000000)) {
+    NODELET_ERROR("~max_ranges must be in [2, 1000000], got %d: using 10000", max_ranges);
+    max_ranges = 10000;
+  }
+  sweep_params_.scan_limits.max_ranges = static_cast<std::size_t>(max_ranges);
+  if (!(sweep_params_.scan_limits.max_duration > 0.0 && sweep_params_.scan_limits.max_duration <= 10.0)) {
+    NODELET_ERROR("~max_scan_duration must be in (0, 10] s: using 0.5");
+    sweep_params_.scan_limits.max_duration = 0.5;
+  }
+  if (!std::isfinite(stamp_limits_.max_age) || !std::isfinite(stamp_limits_.max_ahead)) {
+    NODELET_ERROR("~max_stamp_age and ~max_stamp_ahead must be finite (0: no limit): using 5 and 1 s");
+    stamp_limits_ = core::StampLimits();
+  }
+  if (!(stale_after_ >= 1.0 && stale_after_ <= 600.0)) {
+    NODELET_ERROR("~stale_after must be in [1, 600] s: using 5");
+    stale_after_ = 5.0;
+  }
+  const double numbers[] = {sweep_params_.reversal_hysteresis, sweep_params_.max_joint_gap, sweep_params_.max_wait};
+  if (!(std::isfinite(numbers[0]) && numbers[0] > 0.0 && std::isfinite(numbers[1]) && numbers[1] > 0.0 &&
+        std::isfinite(numbers[2]) && numbers[2] >= 0.0 && numbers[2] <= 10.0 && sweep_params_.min_lines >= 1 &&
+        sweep_params_.max_lines >= sweep_params_.min_lines)) {
+    NODELET_ERROR("invalid sweep parameters (reversal_hysteresis, max_joint_gap > 0; max_wait in [0, 10] s; "
+                  "1 <= min_sweep_lines <= max_sweep_lines): using the defaults");
+    const core::GroupingParams keep = sweep_params_.grouping;
+    const core::ScanLimits limits = sweep_params_.scan_limits;
+    sweep_params_ = core::SweepParams();
+    sweep_params_.grouping = keep;
+    sweep_params_.scan_limits = limits;
+    pnh.param("per_beam_tilt", sweep_params_.per_beam, true);
+  }
+  health_.init(getName(), pnh);
   const std::string problem = g.validate();
   if (!problem.empty()) {
     NODELET_ERROR("invalid grouping parameters (%s): using the defaults", problem.c_str());
@@ -86,16 +123,27 @@ void SweepGrouperNodelet::onInit() {
   diag_timer_ = nh.createTimer(ros::Duration(0.5), [this](const ros::TimerEvent&) { diagnostics_->update(); });
 
   setupChain();
-  scan_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::LaserScan>>(nh, "scan", 50);
-  segments_sub_ = std::make_unique<message_filters::Subscriber<ScanSegments>>(nh, "scan_segments", 50);
-  sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>>(*scan_sub_,
-                                                                                                     *segments_sub_, 50);
+  // The scans and their splits are checked before they are paired: the
+  // synchronizer holds only messages that passed (bounded in size).
+  sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>>(50);
   sync_->registerCallback(boost::bind(&SweepGrouperNodelet::onScan, this, boost::placeholders::_1, boost::placeholders::_2));
+  scan_sub_ = nh.subscribe("scan", 50, &SweepGrouperNodelet::onScanIn, this);
+  segments_sub_ = nh.subscribe("scan_segments", 50, &SweepGrouperNodelet::onSegmentsIn, this);
   joint_sub_ = nh.subscribe("joint_states", 500, &SweepGrouperNodelet::onJoint, this);
   poll_timer_ = nh.createTimer(ros::Duration(0.05), [this](const ros::TimerEvent&) {
     std::lock_guard<std::mutex> l(mutex_);
-    pollSweeps();
+    guarded("poll", [&] { pollSweeps(); });
   });
+}
+
+template <class F>
+void SweepGrouperNodelet::guarded(const char* where, F&& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    ++exceptions_;
+    health_.refuse(std::string("exception in ") + where, e.what());
+  }
 }
 
 bool SweepGrouperNodelet::setupChain() {
@@ -114,6 +162,7 @@ bool SweepGrouperNodelet::setupChain() {
   if (!tiltChainFromUrdf(model, joint_name_, laser_frame_, chain, parent_link_, chain_error_)) return false;
   const auto base_pose = [this](double t, Eigen::Isometry3d& pose) {
     using Status = core::SweepAssembler::PoseStatus;
+    if (!(t > 0.0 && t < 4.29e9)) return Status::Missing;  // ros::Time would throw
     const auto lookup = [&]() {
       pose = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(t)));
     };
@@ -149,21 +198,98 @@ bool SweepGrouperNodelet::setupChain() {
 
 void SweepGrouperNodelet::onJoint(const sensor_msgs::JointStateConstPtr& js) {
   std::lock_guard<std::mutex> l(mutex_);
-  if (!assembler_ && !setupChain()) {
-    warn(chain_error_);
-    return;
-  }
-  for (std::size_t i = 0; i < js->name.size() && i < js->position.size(); ++i)
-    if (js->name[i] == joint_name_) assembler_->addJoint(js->header.stamp.toSec(), js->position[i]);
-  pollSweeps();
+  guarded("joint_states", [&] {
+    if (!assembler_ && !setupChain()) {
+      warn(chain_error_);
+      return;
+    }
+    // Every field that is read is checked: names and positions pair up, the
+    // stamp is set and near the clock, the tilt's position is a real angle.
+    if (js->name.size() != js->position.size()) {
+      health_.refuse("joint_states: name and position differ in length",
+                     std::to_string(js->name.size()) + " names, " + std::to_string(js->position.size()) + " positions");
+      return;
+    }
+    for (std::size_t i = 0; i < js->name.size(); ++i) {
+      if (js->name[i] != joint_name_) continue;
+      const double t = js->header.stamp.toSec();
+      if (const char* bad = core::checkStamp(t, InputHealth::now(), stamp_limits_)) {
+        health_.refuse(std::string("joint_states: ") + bad, std::to_string(t));
+        return;
+      }
+      if (const char* bad = core::checkJointPosition(js->position[i])) {
+        health_.refuse(std::string("joint_states: ") + bad, std::to_string(js->position[i]));
+        return;
+      }
+      assembler_->addJoint(t, js->position[i]);
+    }
+    pollSweeps();
+  });
+}
+
+void SweepGrouperNodelet::onScanIn(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
+  std::lock_guard<std::mutex> l(mutex_);
+  guarded("scan", [&] {
+    const sensor_msgs::LaserScanConstPtr& scan = event.getConstMessage();
+    scans_in_.add(InputHealth::now());
+    if (first_scan_ < 0.0) first_scan_ = InputHealth::now();
+    if (const unsigned long missed = health_.sequence(event.getPublisherName(), scan->header.seq))
+      warn(std::to_string(missed) + " scan lines missed before seq " + std::to_string(scan->header.seq) +
+           " (a full queue upstream, a slow splitter)");
+    const double t = scan->header.stamp.toSec();
+    if (const char* bad = core::checkStamp(t, InputHealth::now(), stamp_limits_)) {
+      health_.refuse(std::string("scan: ") + bad, std::to_string(t));
+      return;
+    }
+    const core::ScanError err = core::checkScan(toScanView(*scan), sweep_params_.scan_limits);
+    if (err != core::ScanError::None) {
+      health_.refuse(std::string("scan: ") + core::scanErrorName(err), std::to_string(scan->ranges.size()) + " ranges");
+      return;
+    }
+    sync_->add0(scan);
+  });
+}
+
+void SweepGrouperNodelet::onSegmentsIn(const ScanSegmentsConstPtr& segs) {
+  std::lock_guard<std::mutex> l(mutex_);
+  guarded("scan_segments", [&] {
+    const std::size_t limit = sweep_params_.scan_limits.max_ranges;
+    if (segs->segments.size() > limit || segs->edge_indices.size() > limit) {
+      health_.refuse("scan_segments: more segments or edges than max_ranges");
+      return;
+    }
+    if (segs->edge_indices.size() != segs->edge_kinds.size()) {
+      health_.refuse("scan_segments: edge_indices and edge_kinds differ in length");
+      return;
+    }
+    for (const std::uint8_t k : segs->edge_kinds)
+      if (k < 1 || k > 4) {
+        health_.refuse("scan_segments: unknown edge kind", std::to_string(k));
+        return;
+      }
+    for (const auto& sg : segs->segments)
+      if (sg.first_index > sg.last_index) {
+        health_.refuse("scan_segments: a segment's first_index after its last_index");
+        return;
+      }
+    sync_->add1(segs);
+  });
 }
 
 void SweepGrouperNodelet::onScan(const sensor_msgs::LaserScanConstPtr& scan, const ScanSegmentsConstPtr& segs) {
-  std::lock_guard<std::mutex> l(mutex_);
   if (!assembler_) return;
-  if (const unsigned long missed = gaps_.add(scan->header.seq))
-    warn(std::to_string(missed) + " scan lines missed before seq " + std::to_string(scan->header.seq) +
-         " (a full queue upstream, a slow splitter)");
+  // The indices must lie in this scan (the split of another scan with the same stamp would not).
+  const std::size_t n = scan->ranges.size();
+  for (const auto& sg : segs->segments)
+    if (sg.last_index >= n) {
+      health_.refuse("scan_segments: a segment beyond the scan's ranges");
+      return;
+    }
+  for (const auto i : segs->edge_indices)
+    if (i >= n) {
+      health_.refuse("scan_segments: an edge index beyond the scan's ranges");
+      return;
+    }
   if (!scan->header.frame_id.empty() && scan->header.frame_id != laser_frame_)
     warn("scan frame '" + scan->header.frame_id + "' is not ~laser_frame '" + laser_frame_ + "': using the URDF chain to '" +
          laser_frame_ + "'");
@@ -183,15 +309,25 @@ void SweepGrouperNodelet::onScan(const sensor_msgs::LaserScanConstPtr& scan, con
   pollSweeps();
 }
 
+void SweepGrouperNodelet::takeAssemblerCounts() {
+  // The assembler counts since its start; the diagnostics want the recent window.
+  using C = core::SweepCounters;
+  static const std::pair<unsigned long C::*, const char*> kinds[] = {
+      {&C::lines_no_joint, "lines: no joint state"},      {&C::lines_no_pose, "lines: no pose (tf)"},
+      {&C::lines_out_of_order, "lines: out of order"},     {&C::lines_bad, "lines: malformed"},
+      {&C::joints_out_of_order, "joint states: out of order"}, {&C::joints_bad, "joint states: not finite"},
+      {&C::sweeps_dropped, "sweeps dropped"},              {&C::time_jumps, "time jumped back (restart)"}};
+  const C& now = assembler_->counters();
+  for (const auto& [field, name] : kinds)
+    for (unsigned long k = counted_.*field; k < now.*field; ++k) health_.refuse(name, assembler_->lastWarning());
+  counted_ = now;
+}
+
 void SweepGrouperNodelet::pollSweeps() {
   if (!assembler_) return;
   core::SweepResult sweep;
   while (assembler_->poll(ros::Time::now().toSec(), sweep)) publish(sweep);
-  // anything dropped (or a restart) since the last look: a throttled warning
-  if (assembler_->counters().problems() != problems_seen_) {
-    problems_seen_ = assembler_->counters().problems();
-    warn(assembler_->lastWarning());
-  }
+  takeAssemblerCounts();  // anything dropped (or a restart) since the last look: counted, a throttled warning
 }
 
 void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
@@ -212,6 +348,8 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   last_latency_ms_ = 1e3 * (sweep.finish_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   last_group_ms_ = 1e3 * sweep.group_seconds;
   last_planes_ = sweep.planes.size();
+  last_sweep_duration_ = sweep.end - sweep.start;
+  sweeps_out_.add(InputHealth::now());
   ++published_;
   // The clouds for rviz are built only while somebody listens.
   const auto publishCloud = [&](ros::Publisher& pub, const auto& fill) {
@@ -237,23 +375,28 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "not ready: %s", chain_error_.c_str());
     return;
   }
+  // The present: scans in and sweeps out over the last seconds. A sweep may
+  // take a while (a slow tilt), so the stale time is at least three of them.
+  const double t = InputHealth::now();
+  core::FlowState flow;
+  flow.now = t;
+  flow.first_input = first_scan_;
+  flow.last_input = scans_in_.last();
+  flow.last_output = sweeps_out_.last();
+  flow.recent_problems = health_.refused().recent(t);
+  std::string why;
+  const core::Health level = core::judgeFlow(flow, std::max(stale_after_, 3.0 * last_sweep_duration_), why);
+  health_.report(stat, level,
+                 why + "; " + std::to_string(sweeps_out_.recent(t)) + " sweeps and " +
+                     std::to_string(scans_in_.recent(t)) + " scans in the last 10 s");
   const core::SweepCounters& c = assembler_->counters();
-  if (c.sweeps_dropped > 0 || c.lines_no_joint + c.lines_no_pose > 0)
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu sweeps published, %lu dropped; last: %s", published_,
-                  c.sweeps_dropped, assembler_->lastWarning().c_str());
-  else
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "%lu sweeps published", published_);
   stat.add("sweeps published", published_);
+  stat.add("sweeps published (last 10 s)", sweeps_out_.recent(t));
+  stat.add("scans received (last 10 s)", scans_in_.recent(t));
   stat.add("sweeps dropped", c.sweeps_dropped);
   stat.add("tilt reversals", c.reversals);
   stat.add("scan lines used", c.lines);
-  stat.add("lines dropped: no joint state", c.lines_no_joint);
-  stat.add("lines dropped: no pose (tf)", c.lines_no_pose);
-  stat.add("lines dropped: out of order", c.lines_out_of_order);
-  stat.add("lines dropped: malformed", c.lines_bad);
-  stat.add("joint states out of order", c.joints_out_of_order);
-  stat.add("time jumps back (restarts)", c.time_jumps);
-  stat.add("scan lines missed upstream (sequence gaps)", gaps_.missed());
+  stat.add("exceptions caught", exceptions_);
   stat.add("lines waiting", assembler_->pending());
   stat.add("planes (last sweep)", last_planes_);
   stat.add("grouping as lines came [ms] (last sweep)", last_group_ms_);

@@ -119,6 +119,16 @@ struct ScanView {
   double angle_increment = 0.0;        ///< [rad]
   double range_min = 0.0;              ///< [m]
   double range_max = 0.0;              ///< [m]
+  double time_increment = 0.0;         ///< time between beams [s] (0: not given)
+  double scan_time = 0.0;              ///< time between scans [s] (0: not given)
+};
+
+/// What a scan may be at most: a bound on the memory one scan may take and
+/// on its timing, so that one absurd message neither grows the buffers for
+/// good nor stalls the lines behind it.
+struct ScanLimits {
+  std::size_t max_ranges = 10000;  ///< more beams than any 2D lidar gives (the UTM-30LX: 1081 of 1440 per turn)
+  double max_duration = 0.5;       ///< (n - 1) * time_increment and scan_time at most [s] (2 Hz scanners)
 };
 
 /// Why a scan is rejected.
@@ -129,14 +139,16 @@ enum class ScanError : std::uint8_t {
   BadIncrement,          ///< angle_increment zero, negative or not finite
   InconsistentAngles,    ///< angle_min + (n-1) * increment != angle_max
   BadRangeLimits,        ///< range_min/max not finite or range_max <= range_min
+  TooManyRanges,         ///< more ranges than ScanLimits::max_ranges
+  BadTimeIncrement,      ///< time_increment or scan_time not finite, negative, or the scan longer than max_duration
 };
-constexpr int kScanErrorCount = 6;
+constexpr int kScanErrorCount = 8;
 
 /// Short name of a scan error ("empty", ...).
 const char* scanErrorName(ScanError e);
 
-/// Checks a scan before splitting. Tolerates angle_max off by up to half an increment.
-ScanError checkScan(const ScanView& scan);
+/// Checks every field of a scan before splitting. Tolerates angle_max off by up to half an increment.
+ScanError checkScan(const ScanView& scan, const ScanLimits& limits = ScanLimits());
 
 /// Result of a split; reuse one across scans so that steady state does not allocate.
 struct SplitResult {
@@ -154,6 +166,8 @@ class ScanSplitter {
   /// Replaces the settings (must be valid: see SplitParams::validate).
   void setParams(const SplitParams& params) { params_ = params; }
   const SplitParams& params() const { return params_; }
+  void setLimits(const ScanLimits& limits) { limits_ = limits; }
+  const ScanLimits& limits() const { return limits_; }
 
   /// Splits a scan. Returns the check's verdict; on an error `out` is cleared.
   ScanError split(const ScanView& scan, SplitResult& out);
@@ -172,6 +186,7 @@ class ScanSplitter {
   static Eigen::Vector2d creasePoint(const Segment& p, const Segment& q);  // point i to the line fitted to [first, last]
 
   SplitParams params_;
+  ScanLimits limits_;
   // per-beam buffers
   std::vector<double> cos_, sin_, x_, y_, r_;
   std::vector<unsigned char> valid_;

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -56,7 +57,8 @@ struct SweepParams {
   double max_dropped_fraction = 0.1;   ///< a sweep with more dropped lines is dropped [1]
   int min_lines = 10;                  ///< shorter sweeps are dropped
   int max_lines = 1000;                ///< longer ones too (no tilt reversal: the head stands still), so memory stays bounded
-  double time_jump_back = 1.0;          ///< stamps this far before the latest: the clock restarted (a looping bag), start again [s]
+  double time_jump_back = 1.0;          ///< stamps this far before the latest, twice in a row: the clock restarted (a looping bag), start again [s]
+  ScanLimits scan_limits;              ///< lines beyond these are dropped as malformed
   bool per_beam = true;                ///< joint angle at every beam's time; false: one per line, at its stamp (as tools that look up one tf per scan do)
   GroupingParams grouping;
 };
@@ -88,11 +90,11 @@ struct SweepResult {
 /// Counters for diagnostics.
 struct SweepCounters {
   unsigned long lines = 0, lines_no_joint = 0, lines_out_of_order = 0, lines_no_pose = 0, lines_bad = 0,
-                joints_out_of_order = 0, sweeps = 0, sweeps_dropped = 0, reversals = 0, time_jumps = 0;
+                joints_out_of_order = 0, joints_bad = 0, sweeps = 0, sweeps_dropped = 0, reversals = 0, time_jumps = 0;
   /// Everything dropped or restarted so far (a change asks for a warning).
   unsigned long problems() const {
-    return lines_no_joint + lines_no_pose + lines_out_of_order + lines_bad + joints_out_of_order + sweeps_dropped +
-           time_jumps;
+    return lines_no_joint + lines_no_pose + lines_out_of_order + lines_bad + joints_out_of_order + joints_bad +
+           sweeps_dropped + time_jumps;
   }
 };
 
@@ -118,8 +120,13 @@ class SweepAssembler {
   SweepAssembler(const SweepParams& params, const TiltChain& chain, BasePose base_pose = nullptr);
   void setParams(const SweepParams& p);
 
+  /// Takes a joint sample. A time or angle that is not finite is dropped
+  /// (joints_bad); a time before the latest is dropped as out of order,
+  /// unless it is the second in a row that far back (a restarted clock).
   void addJoint(double t, double q);
-  /// Queues a scan line; it is put in 3D once the joint states cover its last beam.
+  /// Queues a scan line; it is put in 3D once the joint states cover its last
+  /// beam. A line that checkScan() refuses or whose stamp is not finite is
+  /// dropped at once (lines_bad), so it never holds up the lines behind it.
   void addLine(LineInput line, double arrival);
   /// Processes what it can; true when a sweep finished (in `out`). Call until false.
   bool poll(double now, SweepResult& out);
@@ -137,6 +144,10 @@ class SweepAssembler {
   /// The clock went back (a recording looped, a simulation restarted): forget
   /// the joints, queued lines and the sweep in progress.
   void restart();
+  /// Whether stamp t, before `latest` by more than time_jump_back, is a
+  /// restarted clock: only when the previous one was too (`suspect` holds it).
+  enum class Jump { None, Suspect, Restart };
+  Jump jumpBack(double t, double latest, double& suspect) const;
   bool finishSweep(double end, SweepResult& out);
   void beginSweep(double start);
   /// Puts the line's beams in 3D at their joint angles (q_); returns where the laser was at the middle beam.
@@ -156,6 +167,7 @@ class SweepAssembler {
   bool in_sweep_ = false;
   SweepResult current_;
   double last_line_stamp_ = -1e300, last_line_added_ = -1e300;
+  double joint_jump_ = std::numeric_limits<double>::quiet_NaN(), line_jump_ = std::numeric_limits<double>::quiet_NaN();
   std::uint32_t next_id_ = 0;
   SweepCounters counters_;
   std::string warning_;

@@ -5,7 +5,8 @@
  * Subscribes:  scan (sensor_msgs/LaserScan), only while an output has subscribers.
  * Publishes:   scan_segments (ScanSegments), segment_markers (visualization_msgs/MarkerArray,
  *              built only while subscribed), /diagnostics.
- * Parameters:  ~mode, ~zeta, ~d_min, ~jump_min, ~jump_ratio, ~min_points (dynamic_reconfigure).
+ * Parameters:  ~mode, ~zeta, ~d_min, ~jump_min, ~jump_ratio, ~min_points (dynamic_reconfigure);
+ *              ~max_ranges, ~max_scan_duration (bounds on a scan).
  */
 #pragma once
 
@@ -22,7 +23,7 @@
 
 #include "tilt_laser_perception/ScanSplitterConfig.h"
 #include "tilt_laser_perception/core/scan_split.hpp"
-#include "tilt_laser_perception/core/sequence.hpp"
+#include "tilt_laser_perception/ros/input_health.hpp"
 
 namespace tilt_laser_perception {
 
@@ -34,7 +35,8 @@ class ScanSplitterNodelet : public nodelet::Nodelet {
  private:
   void onInit() override;
   void connectCallback();
-  void scanCallback(const sensor_msgs::LaserScanConstPtr& scan);
+  void scanCallback(const ros::MessageEvent<sensor_msgs::LaserScan const>& event);
+  void split(const ros::MessageEvent<sensor_msgs::LaserScan const>& event);
   void reconfigure(ScanSplitterConfig& config, uint32_t level);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
@@ -49,9 +51,10 @@ class ScanSplitterNodelet : public nodelet::Nodelet {
   ros::Timer diagnostics_timer_;
 
   // counters for diagnostics
-  unsigned long received_ = 0, published_ = 0, dropped_ = 0, dropped_reported_ = 0;
-  core::SequenceGaps gaps_;  // scans lost before they reached us
-  std::array<unsigned long, core::kScanErrorCount> dropped_by_reason_{};
+  unsigned long received_ = 0, published_ = 0, dropped_ = 0;
+  InputHealth health_;  // refused scans by reason, sequence gaps per publisher, loads
+  core::WindowCounter scans_in_{10.0}, scans_out_{10.0};
+  double first_scan_ = -1.0;
   double split_time_sum_ = 0.0, split_time_max_ = 0.0;  // [s] since the last report
   unsigned long split_count_ = 0;
 };

@@ -13,7 +13,6 @@
 #include <string>
 
 #include <diagnostic_updater/diagnostic_updater.h>
-#include <message_filters/subscriber.h>
 #include <message_filters/time_synchronizer.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
@@ -26,6 +25,7 @@
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/core/sequence.hpp"
 #include "tilt_laser_perception/core/sweep.hpp"
+#include "tilt_laser_perception/ros/input_health.hpp"
 
 namespace tilt_laser_perception {
 
@@ -36,8 +36,17 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
  private:
   void onInit() override;
   bool setupChain();
-  void onScan(const sensor_msgs::LaserScanConstPtr& scan, const ScanSegmentsConstPtr& segments);
+  /// Entry points: every field checked, a bad message dropped and counted by reason.
+  void onScanIn(const ros::MessageEvent<sensor_msgs::LaserScan const>& event);
+  void onSegmentsIn(const ScanSegmentsConstPtr& segments);
   void onJoint(const sensor_msgs::JointStateConstPtr& js);
+  /// A scan and its split, paired by the synchronizer (called with mutex_ held).
+  void onScan(const sensor_msgs::LaserScanConstPtr& scan, const ScanSegmentsConstPtr& segments);
+  /// Runs f; an exception it throws is counted and warned about, never let out of a callback.
+  template <class F>
+  void guarded(const char* where, F&& f);
+  /// The assembler's counters since the last look, into the recent window by reason.
+  void takeAssemblerCounts();
   void pollSweeps();
   void publish(const core::SweepResult& sweep);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
@@ -45,23 +54,25 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
 
   std::mutex mutex_;
   std::unique_ptr<core::SweepAssembler> assembler_;
-  unsigned long problems_seen_ = 0;
-  core::SequenceGaps gaps_;  // scan lines lost before they reached us (queues, sync)
+  InputHealth health_;  // refused inputs by reason, sequence gaps per publisher, loads
+  core::SweepCounters counted_;  // the assembler's counters as last taken into health_
+  core::WindowCounter scans_in_{10.0}, sweeps_out_{10.0};
+  core::StampLimits stamp_limits_;
+  double stale_after_ = 5.0, last_sweep_duration_ = 0.0, first_scan_ = -1.0;
   core::SweepParams sweep_params_;
   core::HeightMapParams map_params_;
   core::HeightMapGrid grid_;  // reused: no page faults per sweep
   std::string frame_id_, joint_name_, laser_frame_, parent_link_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::unique_ptr<message_filters::Subscriber<sensor_msgs::LaserScan>> scan_sub_;
-  std::unique_ptr<message_filters::Subscriber<ScanSegments>> segments_sub_;
   std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>> sync_;
-  ros::Subscriber joint_sub_;
+  ros::Subscriber scan_sub_, segments_sub_, joint_sub_;
   ros::Publisher planes_pub_, map_pub_, map_cloud_pub_, sweep_cloud_pub_, edges_pub_, markers_pub_;
   ros::Timer poll_timer_, diag_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTime last_warn_;
   std::string last_warning_, chain_error_;
+  unsigned long exceptions_ = 0;
   unsigned long published_ = 0;
   double last_latency_ms_ = 0.0, last_group_ms_ = 0.0;
   std::size_t last_planes_ = 0;

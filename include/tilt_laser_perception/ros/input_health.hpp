@@ -1,0 +1,53 @@
+/**
+ * @file input_health.hpp
+ * @brief What the splitter and the grouper share where messages enter:
+ *        refused inputs counted by reason over a recent window and warned
+ *        about (throttled, naming the field), scan sequence gaps kept per
+ *        publisher, the nodelet's load count (a respawned manager says so),
+ *        and the diagnostics that follow from them. The rules are core's
+ *        (core/input_check.hpp); this is their ROS side.
+ */
+#pragma once
+
+#include <map>
+#include <string>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/ros.h>
+
+#include "tilt_laser_perception/core/input_check.hpp"
+#include "tilt_laser_perception/core/sequence.hpp"
+
+namespace tilt_laser_perception {
+
+class InputHealth {
+ public:
+  /// `name` prefixes the log lines; the load count is kept in `pnh`'s "~loads".
+  void init(const std::string& name, ros::NodeHandle& pnh, double window = 10.0);
+  /// Counts a refused (or dropped) input and warns, at most every 5 s per reason.
+  void refuse(const std::string& reason, const std::string& detail = std::string());
+  /// Scan lines lost upstream, counted per publisher (a second publisher on
+  /// the topic numbers its own messages); returns how many were missed.
+  unsigned long sequence(const std::string& publisher, std::uint32_t seq);
+  void forgetSequences() { gaps_.clear(); }
+  unsigned long missedUpstream() const;
+  /// The wall clock or the ROS clock, as the checks need it [s].
+  static double now() { return ros::Time::now().toSec(); }
+  const core::ReasonCounts& refused() const { return refused_; }
+  /// Adds the refusals (recent and total, by reason), the losses upstream and
+  /// the load count to a diagnostic status; a load after the first (a
+  /// respawned manager) is said in the summary's words for a minute.
+  void report(diagnostic_updater::DiagnosticStatusWrapper& stat, core::Health level, const std::string& why) const;
+  int loads() const { return loads_; }
+
+ private:
+  std::string name_;
+  double window_ = 10.0;
+  core::ReasonCounts refused_;
+  std::map<std::string, ros::WallTime> last_warned_;
+  std::map<std::string, core::SequenceGaps> gaps_;
+  int loads_ = 1;
+  ros::WallTime loaded_at_;
+};
+
+}  // namespace tilt_laser_perception

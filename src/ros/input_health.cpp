@@ -1,0 +1,66 @@
+#include "tilt_laser_perception/ros/input_health.hpp"
+
+namespace tilt_laser_perception {
+
+void InputHealth::init(const std::string& name, ros::NodeHandle& pnh, double window) {
+  name_ = name;
+  window_ = window;
+  refused_ = core::ReasonCounts(window);
+  // The parameter server outlives a nodelet manager: a count above 1 means
+  // this nodelet was loaded again (the manager died and was respawned).
+  int loads = 0;
+  pnh.param("loads", loads, 0);
+  loads_ = loads + 1;
+  pnh.setParam("loads", loads_);
+  loaded_at_ = ros::WallTime::now();
+  if (loads_ > 1) ROS_WARN("%s: loaded for the %d. time (restarted)", name_.c_str(), loads_);
+}
+
+void InputHealth::refuse(const std::string& reason, const std::string& detail) {
+  refused_.add(reason, now());
+  static constexpr std::size_t kMaxReasons = 64;  // reasons are fixed strings; bound the map anyway
+  const ros::WallTime t = ros::WallTime::now();
+  auto it = last_warned_.find(reason);
+  if (it != last_warned_.end() && (t - it->second).toSec() < 5.0) return;
+  if (it == last_warned_.end() && last_warned_.size() >= kMaxReasons) last_warned_.clear();
+  last_warned_[reason] = t;
+  const auto& e = refused_.entries(now());
+  unsigned long total = 0;
+  for (const auto& x : e)
+    if (x.reason == reason) total = x.total;
+  ROS_WARN("%s: input dropped: %s%s%s (%lu so far)", name_.c_str(), reason.c_str(), detail.empty() ? "" : ": ",
+           detail.c_str(), total);
+}
+
+unsigned long InputHealth::sequence(const std::string& publisher, std::uint32_t seq) {
+  if (gaps_.size() >= 16 && gaps_.find(publisher) == gaps_.end()) gaps_.clear();  // publishers come and go
+  return gaps_[publisher].add(seq);
+}
+
+unsigned long InputHealth::missedUpstream() const {
+  unsigned long n = 0;
+  for (const auto& g : gaps_) n += g.second.missed();
+  return n;
+}
+
+void InputHealth::report(diagnostic_updater::DiagnosticStatusWrapper& stat, core::Health level,
+                         const std::string& why) const {
+  using diagnostic_msgs::DiagnosticStatus;
+  static const unsigned char kLevel[] = {DiagnosticStatus::OK, DiagnosticStatus::WARN, DiagnosticStatus::ERROR,
+                                         DiagnosticStatus::STALE};
+  std::string summary = why;
+  if (loads_ > 1 && (ros::WallTime::now() - loaded_at_).toSec() < 60.0) {
+    summary = "restarted (load " + std::to_string(loads_) + "); " + why;
+    if (level == core::Health::Ok) level = core::Health::Warn;
+  }
+  stat.summary(kLevel[static_cast<int>(level)], summary);
+  stat.add("loads (1: never restarted)", loads_);
+  const double t = now();
+  stat.add("inputs dropped (last " + std::to_string(int(window_)) + " s)", refused_.recent(t));
+  stat.add("inputs dropped (total)", refused_.total());
+  for (const auto& e : refused_.entries(t))
+    stat.add("dropped: " + e.reason, std::to_string(e.recent) + " recent, " + std::to_string(e.total) + " total");
+  stat.add("scans missed upstream (sequence gaps)", missedUpstream());
+}
+
+}  // namespace tilt_laser_perception

@@ -1,0 +1,151 @@
+// The checks where messages enter (core/input_check.hpp, core::checkScan's
+// bounds): each kind of bad field that issue 20 found, and the window counts
+// and health verdict the diagnostics are made of.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "tilt_laser_perception/core/input_check.hpp"
+#include "tilt_laser_perception/core/scan_split.hpp"
+
+using namespace tilt_laser_perception::core;
+
+namespace {
+const double kNan = std::numeric_limits<double>::quiet_NaN();
+
+struct Scan {
+  std::vector<float> ranges = std::vector<float>(1081, 2.0f);
+  ScanView view() const {
+    ScanView v;
+    v.ranges = ranges.data();
+    v.size = ranges.size();
+    v.angle_min = -2.356194;
+    v.angle_increment = 0.004363323;
+    v.angle_max = v.angle_min + (v.size - 1) * v.angle_increment;
+    v.range_min = 0.023;
+    v.range_max = 60.0;
+    v.time_increment = 1.736e-5;  // the UTM-30LX: 25 ms per 1440 steps
+    v.scan_time = 0.025;
+    return v;
+  }
+};
+}  // namespace
+
+TEST(InputCheck, StampsMustBeSetFiniteAndNearTheClock) {
+  const StampLimits l;  // 5 s back, 1 s ahead
+  EXPECT_EQ(checkStamp(1000.0, 1000.2, l), nullptr);
+  EXPECT_STREQ(checkStamp(0.0, 1000.0, l), "stamp zero (not set)");
+  EXPECT_STREQ(checkStamp(kNan, 1000.0, l), "stamp not finite");
+  EXPECT_STREQ(checkStamp(-1.0, 1000.0, l), "stamp negative");
+  EXPECT_NE(checkStamp(994.0, 1000.0, l), nullptr);   // 6 s old
+  EXPECT_EQ(checkStamp(995.5, 1000.0, l), nullptr);
+  EXPECT_NE(checkStamp(1001.5, 1000.0, l), nullptr);  // 1.5 s ahead
+  EXPECT_EQ(checkStamp(3.0, 0.0, l), nullptr);        // the sim clock has not started: no clock test
+  StampLimits off;
+  off.max_age = off.max_ahead = 0.0;
+  EXPECT_EQ(checkStamp(10.0, 1000.0, off), nullptr);
+}
+
+TEST(InputCheck, JointPositionsMustBeFiniteAngles) {
+  EXPECT_EQ(checkJointPosition(0.7), nullptr);
+  EXPECT_EQ(checkJointPosition(-3.1), nullptr);
+  EXPECT_NE(checkJointPosition(kNan), nullptr);
+  EXPECT_NE(checkJointPosition(std::numeric_limits<double>::infinity()), nullptr);
+  EXPECT_NE(checkJointPosition(7.0), nullptr);
+}
+
+TEST(InputCheck, ScansBeyondTheBoundsOrWithBadTimesAreRefused) {
+  Scan s;
+  EXPECT_EQ(checkScan(s.view()), ScanError::None);
+  ScanView v = s.view();
+  v.time_increment = kNan;  // issue 20's crash
+  EXPECT_EQ(checkScan(v), ScanError::BadTimeIncrement);
+  v.time_increment = -1e-5;
+  EXPECT_EQ(checkScan(v), ScanError::BadTimeIncrement);
+  v.time_increment = 1.0;  // 1080 s per scan
+  EXPECT_EQ(checkScan(v), ScanError::BadTimeIncrement);
+  v = s.view();
+  v.scan_time = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(checkScan(v), ScanError::BadTimeIncrement);
+  v = s.view();
+  v.time_increment = 0.0;  // not given: fine (one time for the whole line)
+  EXPECT_EQ(checkScan(v), ScanError::None);
+  // 100,000 ranges: refused before any buffer grows for them.
+  Scan big;
+  big.ranges.assign(100000, 2.0f);
+  v = big.view();
+  v.time_increment = 0.0;
+  v.angle_increment = 4.7e-3 / 100;
+  v.angle_max = v.angle_min + (v.size - 1) * v.angle_increment;
+  EXPECT_EQ(checkScan(v), ScanError::TooManyRanges);
+  ScanLimits wide;
+  wide.max_ranges = 200000;
+  EXPECT_EQ(checkScan(v, wide), ScanError::None);
+}
+
+TEST(InputCheck, TheSplitterRefusesAHugeScanWithoutGrowing) {
+  ScanSplitter sp;
+  SplitResult r;
+  Scan s;
+  ASSERT_EQ(sp.split(s.view(), r), ScanError::None);
+  EXPECT_GT(r.segments.size(), 0u);
+  Scan big;
+  big.ranges.assign(1000000, 2.0f);
+  ScanView v = big.view();
+  v.time_increment = 0.0;
+  v.angle_increment = 1e-6;
+  v.angle_max = v.angle_min + (v.size - 1) * v.angle_increment;
+  EXPECT_EQ(sp.split(v, r), ScanError::TooManyRanges);
+  EXPECT_TRUE(r.segments.empty());
+  ASSERT_EQ(sp.split(s.view(), r), ScanError::None);  // and goes on with good ones
+  EXPECT_GT(r.segments.size(), 0u);
+}
+
+TEST(InputCheck, WindowCountsForgetWhatIsOlderThanTheWindow) {
+  WindowCounter c(10.0);
+  for (int i = 0; i < 40; ++i) c.add(100.0 + 0.025 * i);  // 40 in one second
+  EXPECT_EQ(c.recent(101.0), 40u);
+  EXPECT_EQ(c.recent(109.5), 40u);
+  EXPECT_EQ(c.recent(111.0), 0u);
+  EXPECT_EQ(c.total(), 40u);
+  c.add(200.0);
+  EXPECT_EQ(c.recent(200.5), 1u);
+  EXPECT_EQ(c.recent(50.0), 0u);  // the clock went back (a looping bag): nothing recent
+  c.add(50.2);
+  EXPECT_EQ(c.recent(50.5), 1u);
+  EXPECT_EQ(c.total(), 42u);
+
+  ReasonCounts r(10.0);
+  r.add("scan: empty scan", 10.0);
+  r.add("scan: empty scan", 11.0);
+  r.add("joint_states: stamp zero (not set)", 12.0);
+  EXPECT_EQ(r.recent(12.5), 3u);
+  EXPECT_EQ(r.recent(21.5), 1u);
+  EXPECT_EQ(r.total(), 3u);
+  ASSERT_EQ(r.entries(21.5).size(), 2u);
+  EXPECT_EQ(r.entries(21.5)[0].recent, 0u);
+  EXPECT_EQ(r.entries(21.5)[0].total, 2u);
+}
+
+TEST(InputCheck, HealthTellsThePresent) {
+  std::string why;
+  FlowState s;
+  s.now = 100.0;
+  EXPECT_EQ(judgeFlow(s, 5.0, why), Health::Stale);  // nothing yet
+  s.first_input = 98.0;
+  s.last_input = 99.9;
+  EXPECT_EQ(judgeFlow(s, 5.0, why), Health::Ok) << why;  // starting: within the grace
+  s.now = 110.0;
+  s.last_input = 109.9;
+  EXPECT_EQ(judgeFlow(s, 5.0, why), Health::Error) << why;  // scans flow, no planes for 12 s
+  s.last_output = 109.0;
+  EXPECT_EQ(judgeFlow(s, 5.0, why), Health::Ok) << why;
+  s.recent_problems = 2;
+  EXPECT_EQ(judgeFlow(s, 5.0, why), Health::Warn) << why;
+  s.recent_problems = 0;
+  s.now = 120.0;
+  EXPECT_EQ(judgeFlow(s, 5.0, why), Health::Stale) << why;  // the laser went silent
+}
