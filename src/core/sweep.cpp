@@ -78,6 +78,7 @@ void SweepAssembler::restart() {
   direction_ = 0;
   have_extreme_ = false;
   last_mid_ = last_joint_t_ = last_line_stamp_ = last_line_added_ = -1e300;
+  n_intervals_ = 0;
   joint_jump_ = line_jump_ = std::numeric_limits<double>::quiet_NaN();
   in_sweep_ = false;
   current_ = SweepResult();
@@ -169,8 +170,24 @@ void SweepAssembler::addLine(LineInput line, double arrival) {
   queue_.emplace_back(std::move(line), arrival);
 }
 
+double SweepAssembler::linePeriod() const {
+  if (n_intervals_ == 0) return 0.025;
+  const int n = std::min<int>(n_intervals_, intervals_.size());
+  std::array<double, 8> v = intervals_;
+  std::nth_element(v.begin(), v.begin() + n / 2, v.begin() + n);
+  return v[n / 2];
+}
+
+int SweepAssembler::missingBetween(double a, double b) const {
+  const double period = linePeriod();
+  if (!(period > 0.0) || !(b > a)) return 0;
+  const double k = std::round((b - a) / period) - 1.0;
+  return k > 0.0 ? static_cast<int>(std::min(k, 1e6)) : 0;
+}
+
 void SweepAssembler::beginSweep(double start) {
   in_sweep_ = true;
+  sweep_last_mid_ = start - 0.5 * linePeriod();  // a line just before the start: the first one's middle is after it
   current_ = SweepResult();
   current_.id = next_id_;
   current_.start = start;
@@ -181,6 +198,8 @@ void SweepAssembler::beginSweep(double start) {
 
 bool SweepAssembler::finishSweep(double end, SweepResult& out) {
   in_sweep_ = false;
+  // Lines that never came before the end (the laser fell silent) count as dropped.
+  current_.dropped_lines += missingBetween(sweep_last_mid_, end + 0.5 * linePeriod());
   const int n = static_cast<int>(current_.lines.size());
   const bool too_many_dropped = current_.dropped_lines > p_.max_dropped_fraction * (n + current_.dropped_lines);
   if (n < p_.min_lines || too_many_dropped) {
@@ -199,6 +218,12 @@ bool SweepAssembler::finishSweep(double end, SweepResult& out) {
   ++next_id_;
   ++counters_.sweeps;
   return true;
+}
+
+void SweepAssembler::takeLine(double mid, bool kept) {
+  // Lines between the last one and this one that never came (an outage) are lost too.
+  current_.dropped_lines += missingBetween(sweep_last_mid_, mid) + (kept ? 0 : 1);
+  sweep_last_mid_ = mid;
 }
 
 bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base) {
@@ -367,7 +392,7 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       if (now - queue_.front().second <= p_.max_wait) return false;  // wait for joint states
       ++counters_.lines_no_joint;
       warning_ = "no joint states for a scan line within " + std::to_string(p_.max_wait).substr(0, 4) + " s: dropped";
-      if (in_sweep_) ++current_.dropped_lines;
+      if (in_sweep_) takeLine(mid, false);
       queue_.pop_front();
       continue;
     }
@@ -391,7 +416,10 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
     Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
     const PoseStatus pose = base_pose_ ? base_pose_(mid, base) : PoseStatus::Ok;
     if (pose == PoseStatus::Wait && now - queue_.front().second <= p_.max_wait) return false;  // wait for tf
-    if (last_line_stamp_ > -1e299) line_period_ = in.stamp - last_line_stamp_;
+    if (last_line_stamp_ > -1e299) {
+      intervals_[n_intervals_ % intervals_.size()] = in.stamp - last_line_stamp_;
+      ++n_intervals_;
+    }
     last_line_stamp_ = in.stamp;
     last_mid_ = mid;
     if (in_sweep_ && static_cast<int>(current_.lines.size()) >= p_.max_lines) {
@@ -406,15 +434,15 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
     if (pose != PoseStatus::Ok) {
       ++counters_.lines_no_pose;
       warning_ = "no pose of the head at the scan's time (tf gap): line dropped";
-      if (in_sweep_) ++current_.dropped_lines;
-    } else if (in_sweep_ && !process(in, base)) {
-      ++current_.dropped_lines;
+      if (in_sweep_) takeLine(mid, false);
+    } else if (in_sweep_) {
+      takeLine(mid, process(in, base));
     }
     queue_.pop_front();
   }
   // The next line's middle will be past a known reversal: every line of the
   // sweep is in, so finish now (the latency users feel).
-  if (!reversals_.empty() && in_sweep_ && last_mid_ + line_period_ > reversals_.front()) {
+  if (!reversals_.empty() && in_sweep_ && last_mid_ + linePeriod() > reversals_.front()) {
     const double r = reversals_.front();
     reversals_.pop_front();
     SweepResult done;

@@ -7,6 +7,7 @@
  */
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -82,7 +83,7 @@ struct SweepResult {
   std::vector<Segment3> segments;   ///< all segments, lines in order
   std::vector<int> segment_plane;   ///< plane of each segment, -1 none
   std::vector<Plane> planes;
-  int dropped_lines = 0;
+  int dropped_lines = 0;            ///< lines dropped, and lines that never came (an outage), within the sweep
   double group_seconds = 0.0;       ///< CPU time of putting lines in 3D and grouping them as they came [s]
   double finish_seconds = 0.0;      ///< time from the sweep's end to its planes [s]
 };
@@ -149,6 +150,8 @@ class SweepAssembler {
   enum class Jump { None, Suspect, Restart };
   Jump jumpBack(double t, double latest, double& suspect) const;
   bool finishSweep(double end, SweepResult& out);
+  /// A line of the sweep in progress, at its middle, was kept or dropped.
+  void takeLine(double mid, bool kept);
   void beginSweep(double start);
   /// Puts the line's beams in 3D at their joint angles (q_); returns where the laser was at the middle beam.
   Eigen::Vector3d transformBeams(const LineInput& in, const Eigen::Isometry3d& base, SweepLine& line);
@@ -161,7 +164,15 @@ class SweepAssembler {
   std::deque<double> reversals_;
   int direction_ = 0;
   bool have_extreme_ = false;
-  double last_mid_ = -1e300, line_period_ = 0.025;
+  double last_mid_ = -1e300;
+  /// The line period: the median of the last intervals between lines (a gap
+  /// of an outage does not move it; a new scan rate does within a few lines) [s].
+  double linePeriod() const;
+  /// Lines that should lie between two line middles a and b but never came.
+  int missingBetween(double a, double b) const;
+  std::array<double, 8> intervals_{};
+  int n_intervals_ = 0;
+  double sweep_last_mid_ = 0.0;  ///< middle of the last line taken for the sweep in progress (kept or dropped) [s]
   double extreme_q_ = 0.0, extreme_t_ = 0.0, last_joint_t_ = -1e300;
   ScanLineGrouper grouper_;
   bool in_sweep_ = false;
