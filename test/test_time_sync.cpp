@@ -25,7 +25,7 @@ struct Result {
 };
 
 Result run(double drift_ppm, double clock0_ms, double motor_ppm, double jitter_ms, unsigned seed, ScanClock& clock,
-           double seconds = 12.0, double warmup = 3.0) {
+           double seconds = 12.0, double warmup = 3.0, double delay_from = -1.0, double delay_to = -1.0) {
   FakeSensor s{drift_ppm, clock0_ms, 1000.0, motor_ppm};
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
@@ -48,11 +48,15 @@ Result run(double drift_ppm, double clock0_ms, double motor_ppm, double jitter_m
     const double sigma = phase0 + k * 25.0 * (1.0 + motor_ppm * 1e-6);
     const double t0 = s.hostOf(sigma);
     if (t0 > h + seconds) break;
-    const double arrival = t0 + 0.025 + 0.0003 + jitter(rng);
+    double arrival = t0 + 0.025 + 0.0003 + jitter(rng);
+    // Replies held 300 ms (the emulator's delay fault): scans come in bursts
+    // every 0.33 s, clock readings take 300 ms.
+    const bool delayed = arrival - h > delay_from && arrival - h < delay_to;
+    if (delayed) arrival = h + delay_from + 0.33 * std::ceil((arrival - h - delay_from) / 0.33);
     if (arrival > next_ii) {  // an II request at 5 Hz, sent at a random moment
       const double send = arrival + 0.02 * uni(rng);
       const double reply = send + 0.0002 * uni(rng);
-      clock.addClockSample({send, send + 0.0003, s.stamp(reply)});
+      clock.addClockSample({send, send + (delayed ? 0.3 : 0.0003), s.stamp(reply)});
       next_ii += 0.2;
     }
     const double stamped = clock.stamp(static_cast<std::uint32_t>(std::floor(sigma)) & 0xFFFFFF, arrival);
@@ -77,6 +81,22 @@ TEST(ScanClock, StampsWithinAMillisecondWhileTheClockDrifts) {
     EXPECT_NEAR(clock.latency(), 0.0256, 0.0005);
     std::printf("drift %+.0f ppm: max %.3f ms, rms %.3f ms over %d scans\n", drift, r.max_abs, r.rms, r.n);
   }
+}
+
+TEST(ScanClock, DelayedRepliesAreSeenAndDoNotBendTheModel) {
+  // Issue 20: with replies delayed 300 ms the stamps were 27 ms off at the
+  // median and the drift read -121 ppm, while nothing said so. Delayed for
+  // 20 s of a 40 s stream (the 30 s arrival window full of bursts).
+  ScanClock clock;
+  const Result r = run(200.0, 777777.0, 400.0, 0.3, 4, clock, 40.0, 3.0, 8.0, 28.0);
+  std::printf("delayed 20 s: max %.3f ms, rms %.3f ms, drift %.1f ppm, %lu scans late, %lu clock readings left out\n",
+              r.max_abs, r.rms, clock.driftPpm(), clock.delayedScans(), clock.rejectedSamples());
+  EXPECT_GT(clock.delayedScans(), 400u);  // of 800 in the delay (those held 0.1-0.33 s)
+  EXPECT_GT(clock.rejectedSamples(), 90u);
+  EXPECT_NEAR(clock.lastRejectedRtt(), 0.3, 1e-6);
+  EXPECT_EQ(clock.impossibleStamps(), 0u);
+  EXPECT_LT(r.max_abs, 1.0);
+  EXPECT_NEAR(clock.driftPpm(), 200.0, 30.0);
 }
 
 TEST(ScanClock, HandlesThe24BitWrap) {

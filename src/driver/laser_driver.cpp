@@ -119,6 +119,10 @@ void LaserDriver::run() {
     status_.clock_offset = client_->clock().offset();
     status_.clock_drift_ppm = client_->clock().driftPpm();
     status_.clock_samples = client_->clock().clockSamples();
+    status_.clock_rejected = client_->clock().rejectedSamples();
+    status_.last_rejected_rtt = client_->clock().lastRejectedRtt();
+    status_.delayed_scans = client_->clock().delayedScans();
+    status_.impossible_stamps = client_->clock().impossibleStamps();
   }
 }
 

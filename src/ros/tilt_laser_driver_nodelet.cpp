@@ -185,12 +185,31 @@ void TiltLaserDriverNodelet::onInit() {
 
 void TiltLaserDriverNodelet::diagnoseLaser(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   const driver::LaserStatus s = laser_->status();
+  const double now = ros::WallTime::now().toSec();
+  delayed_win_.add(now, s.delayed_scans - std::min(delayed_seen_, s.delayed_scans));
+  impossible_win_.add(now, s.impossible_stamps - std::min(impossible_seen_, s.impossible_stamps));
+  // A clock reading that took 10 times the sensor's few ms: replies wait somewhere.
+  if (s.clock_rejected > rejected_seen_ && s.last_rejected_rtt > 0.05) slow_reply_win_.add(now);
+  delayed_seen_ = s.delayed_scans;
+  impossible_seen_ = s.impossible_stamps;
+  rejected_seen_ = s.clock_rejected;
+  const unsigned long delayed = delayed_win_.recent(now), impossible = impossible_win_.recent(now),
+                      slow = slow_reply_win_.recent(now);
   if (!s.streaming)
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "not streaming: %s", s.last_error.c_str());
+  else if (delayed + impossible + slow > 0)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                  "replies delayed: %lu scans late, %lu stamped after they arrived, %lu slow clock readings "
+                  "(last round trip %.0f ms) in the last 10 s",
+                  delayed, impossible, slow, 1e3 * s.last_rejected_rtt);
   else if (s.scan_rate < 38.0)
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "scan rate %.1f Hz (expected 40)", s.scan_rate);
   else
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "streaming");
+  stat.add("scans arrived late (last 10 s)", delayed);
+  stat.add("scans stamped after they arrived (last 10 s)", impossible);
+  stat.add("clock readings left out (round trip too long)", s.clock_rejected);
+  stat.add("round trip of the last one left out [ms]", 1e3 * s.last_rejected_rtt);
   stat.add("endpoint", s.endpoint);
   stat.add("model", s.info.model);
   stat.add("serial", s.info.serial);

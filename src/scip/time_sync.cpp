@@ -34,6 +34,7 @@ void ScanClock::reset() {
   have_origin_ = have_scan_ = false;
   min_rtt_ = 1e9;
   host_per_rev_ = opt_.period_ms * 1e-3;
+  g_stream_ = 0.0;
   offset_ = drift_ppm_ = latency_ = sensor_time_ = 0.0;
   scans_ = missed_ = 0;
 }
@@ -60,11 +61,13 @@ bool ScanClock::addClockSample(const TmSample& s) {
   const double rtt = s.recv - s.send;
   if (!(rtt >= 0.0) || rtt > opt_.max_rtt) {
     ++rejected_;
+    last_rejected_rtt_ = rtt;
     return false;
   }
   min_rtt_ = std::min(min_rtt_ * 1.001 + 1e-6, rtt);  // slowly forgets
   if (rtt > min_rtt_ + opt_.rtt_margin) {
     ++rejected_;
+    last_rejected_rtt_ = rtt;
     return false;
   }
   const double mid = 0.5 * (s.send + s.recv);
@@ -162,8 +165,11 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
   // The clocks' rate ratio from the stream: sensor milliseconds per revolution
   // (above) over host seconds per revolution (the lower envelope of the
   // arrivals: the earliest in each run of 10 revolutions, jitter only delays).
-  double g_stream = 0.0;
-  if (scans_win_.size() >= 40 && scans_win_.back().r - scans_win_.front().r >= 2.0) {
+  // While scans arrive late (a delayed reply within the window), the
+  // arrivals tell nothing about the rate: the last rate found is kept.
+  bool disturbed = false;
+  for (const ScanSample& e : scans_win_) disturbed = disturbed || e.delayed;
+  if (!disturbed && scans_win_.size() >= 40 && scans_win_.back().r - scans_win_.front().r >= 2.0) {
     std::vector<std::pair<double, double>> minima;  // (k, arrival)
     const double r0 = scans_win_.front().r;
     for (std::size_t start = 0; start < scans_win_.size(); start += 10) {
@@ -179,9 +185,10 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
             [](const std::pair<double, double>& e) { return e.second; }, ia, per_rev);
     if (per_rev > 0.5 * opt_.period_ms * 1e-3 && per_rev < 2.0 * opt_.period_ms * 1e-3) {
       host_per_rev_ = per_rev;
-      g_stream = p / per_rev;  // sensor ms per host s
+      g_stream_ = p / per_rev;  // sensor ms per host s
     }
   }
+  const double g_stream = g_stream_;
 
   double host;
   double c = 0.0, g = 1000.0;
@@ -201,6 +208,12 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
   }
   latency_ = recv - host;
   offset_ = host - sensor_time_ * 1e-3;
+  // A delayed reply: this scan does not tell when scans arrive.
+  if (latency_ > opt_.max_latency) {
+    ++delayed_;
+    scans_win_.back().delayed = true;
+  }
+  if (latency_ < opt_.min_latency) ++impossible_;
   return host;
 }
 

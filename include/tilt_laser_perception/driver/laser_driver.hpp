@@ -36,6 +36,10 @@ struct LaserStatus {
   double clock_offset = 0.0;   ///< host minus sensor time [s]
   double clock_drift_ppm = 0.0;
   std::size_t clock_samples = 0;
+  unsigned long clock_rejected = 0;  ///< clock readings left out for their round trip
+  double last_rejected_rtt = 0.0;    ///< round trip of the last one left out [s]
+  unsigned long delayed_scans = 0;   ///< scans that arrived more than max_latency after their step 0
+  unsigned long impossible_stamps = 0;  ///< scans stamped less than the scan's own duration before they arrived
   unsigned long reconnects = 0;
   /// Reconnections after which the sensor's clock had started again (the
   /// sensor rebooted or lost power): the host time at which its clock read 0

@@ -19,6 +19,8 @@
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 
+#include "tilt_laser_perception/core/input_check.hpp"
+
 #include "tilt_laser_perception/driver/laser_driver.hpp"
 #include "tilt_laser_perception/driver/servo_driver.hpp"
 
@@ -35,6 +37,9 @@ class TiltLaserDriverNodelet : public nodelet::Nodelet {
   void diagnoseServo(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   std::unique_ptr<driver::LaserDriver> laser_;
+  // The laser's timing faults over the last seconds (the status counts since start).
+  core::WindowCounter delayed_win_{10.0}, impossible_win_{10.0}, slow_reply_win_{10.0};
+  unsigned long delayed_seen_ = 0, impossible_seen_ = 0, rejected_seen_ = 0;
   std::unique_ptr<driver::ServoDriver> servo_;
   ros::Publisher scan_pub_, joint_pub_, sweep_pub_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;

@@ -50,6 +50,12 @@ class ScanClock {
     double max_rtt = 0.005;         ///< clock samples with a longer round trip are left out [s]
     double rtt_margin = 0.0001;     ///< ... and those this much longer than the shortest seen [s]
     double default_latency = 0.025; ///< arrival minus step 0 assumed without clock samples [s]
+    /// Arrival minus step 0 can be no less: the scan's last step is measured
+    /// this long after step 0 (the UTM-30LX: 1080 of 1440 steps of 25 ms) [s].
+    double min_latency = 0.01875;
+    /// Arrival minus step 0 beyond this: the scan waited on its way (a
+    /// delayed reply, a stalled link), far beyond the sensor's few ms [s].
+    double max_latency = 0.1;
   };
 
   ScanClock() = default;
@@ -80,12 +86,21 @@ class ScanClock {
   /// Clock samples in use, and those left out for their round trip.
   std::size_t clockSamples() const { return clock_.size(); }
   unsigned long rejectedSamples() const { return rejected_; }
+  /// Round trip of the last clock reading left out [s] (0 when none).
+  double lastRejectedRtt() const { return last_rejected_rtt_; }
+  /// Scans that arrived later than max_latency after their step 0 by the
+  /// model (left out of the arrival envelope, so a delay does not bend the
+  /// rate), and scans the model put less than min_latency before their
+  /// arrival (impossible: the model is off).
+  unsigned long delayedScans() const { return delayed_; }
+  unsigned long impossibleStamps() const { return impossible_; }
 
  private:
   struct ScanSample {
     double k;  // revolution index
     double s;  // stamp [ms], unwrapped, relative to origin_
     double r;  // arrival [s]
+    bool delayed = false;  // arrived late: not part of the arrival envelope
   };
   struct ClockSample {
     double h;  // host time [s], relative to host0_
@@ -104,8 +119,10 @@ class ScanClock {
   double last_k_ = 0.0;
   double min_rtt_ = 1e9;
   double host_per_rev_ = 0.025;  // host seconds per revolution (arrival envelope)
+  double g_stream_ = 0.0;        // sensor ms per host s from the stream (0: not yet)
   double offset_ = 0.0, drift_ppm_ = 0.0, latency_ = 0.0, sensor_time_ = 0.0;
-  unsigned long scans_ = 0, jumps_ = 0, missed_ = 0, rejected_ = 0;
+  unsigned long scans_ = 0, jumps_ = 0, missed_ = 0, rejected_ = 0, delayed_ = 0, impossible_ = 0;
+  double last_rejected_rtt_ = 0.0;
 };
 
 }  // namespace scip
