@@ -135,6 +135,16 @@ TEST_P(ServoDriverTest, RecoversFromEveryServoFault) {
   EXPECT_GE(st.bus.bad_packets, 1u);
   EXPECT_GE(st.bus.garbage_bytes, 3u);
 
+  // Issue 20: 20 bad checksums in a row cost 5.5 s of joint states (the port
+  // reopened, pinging into the corrupt replies, backing off to 2 s). The line
+  // is alive: no reopening, joint states again within 0.3 s.
+  const unsigned long reopens = drv.status().reopens;
+  emu.corruptNextReplies(20);
+  std::this_thread::sleep_for(300ms);
+  EXPECT_TRUE(flowing());
+  EXPECT_EQ(drv.status().reopens, reopens);
+  EXPECT_GE(drv.status().bus.bad_packets, 20u);
+
   emu.setNoReply(true);  // silent servo: reopened after 5 failed reads
   std::this_thread::sleep_for(400ms);
   EXPECT_GE(drv.status().reopens, 1u);

@@ -77,7 +77,12 @@ bool ServoDriver::openAndConfigure() {
   std::uint16_t model = 0;
   std::uint8_t e = 0;
   TxResult r = TxResult::Timeout;
-  for (int i = 0; i < 3 && r != TxResult::Ok; ++i) r = bus_.ping(opt_.id, &model, &e, opt_.timeout);
+  // Three silent pings: nobody there. A corrupt reply is somebody there:
+  // try on (the bus resynchronises on every request), up to 20 pings.
+  for (int i = 0, silent = 0; i < 20 && silent < 3 && r != TxResult::Ok; ++i) {
+    r = bus_.ping(opt_.id, &model, &e, opt_.timeout);
+    silent += r != TxResult::BadPacket;
+  }
   if (r != TxResult::Ok) {
     std::lock_guard<std::mutex> l(status_mutex_);
     status_.last_error = "servo " + std::to_string(opt_.id) + " on " + opt_.device + " does not answer ping: " +
@@ -210,7 +215,7 @@ void ServoDriver::handleHardwareError(std::uint8_t bits, double now) {
 
 void ServoDriver::run() {
   double backoff = opt_.backoff_min;
-  int failures = 0;
+  int failures = 0, corrupt = 0;
   double next = dynamixel::monotonicNow();
   double next_health = 0.0;
   const double period = 1.0 / std::max(1.0, opt_.rate);
@@ -238,7 +243,14 @@ void ServoDriver::run() {
     std::uint8_t err = 0;
     const TxResult rr = readState(s, err);
     if (rr != TxResult::Ok) {
-      if (rr == TxResult::PortError || rr == TxResult::NotSent || ++failures >= opt_.max_failures) {
+      // A corrupt reply is no lost servo: the line is alive and the next
+      // request starts afresh; reopening would only cost the backoff (20 bad
+      // checksums cost 5.5 s of joint states that way). Only a run of them
+      // far longer than a glitch (1 s at 200 Hz) counts as a lost link.
+      const bool lost = rr == TxResult::PortError || rr == TxResult::NotSent ||
+                        (rr == TxResult::BadPacket ? ++corrupt >= 200 : ++failures >= opt_.max_failures);
+      if (lost) {
+        corrupt = 0;
         const std::string why = status().last_error;
         port_.close();
         dropSweep(why);
@@ -251,7 +263,7 @@ void ServoDriver::run() {
       sleepUntil(next);
       continue;
     }
-    failures = 0;
+    failures = corrupt = 0;
     {
       std::lock_guard<std::mutex> l(status_mutex_);
       ++status_.samples;

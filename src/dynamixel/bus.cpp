@@ -210,6 +210,9 @@ TxResult Bus::transact(std::uint8_t id, std::uint8_t instruction, const std::vec
       ++counters_.ok;
       return TxResult::Ok;
     }
+    // A reply whose checksum failed: this one will not come right; say so now
+    // rather than after the timeout (the next request starts afresh).
+    if (parser_.badChecksums() != last_bad_) break;
     const double left = end - monotonicNow();
     if (left <= 0) break;
     if (!receive(left)) return TxResult::PortError;

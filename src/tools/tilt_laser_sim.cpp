@@ -35,7 +35,7 @@ void usage() {
       "                      [--head FILE] [--duration S]\n"
       "Prints the laser's address (host:port) and the servo's device path, one per line.\n"
       "Fault SPEC is NAME@T[:ARG], T seconds after start:\n"
-      "  laser: drop@T  silent@T[:DURATION]  corrupt@T[:SCANS]  truncate@T[:SCANS]  delay@T:MS  reboot@T\n"
+      "  laser: drop@T  silent@T[:DURATION]  corrupt@T[:SCANS]  truncate@T[:SCANS]  delay@T:MS (0 ends it)  reboot@T\n"
       "  servo: servo-noreply@T[:DURATION]  servo-badcrc@T[:N]  servo-garbage@T[:N]\n"
       "         servo-overload@T  servo-overheat@T  servo-voltage@T  servo-clear@T  servo-vanish@T[:DURATION]\n");
 }
@@ -181,7 +181,7 @@ int main(int argc, char** argv) {
         if (arg > 0) plan.push_back({t + arg, [&] { laser.setSilent(false); }});
       } else if (f.name == "corrupt") plan.push_back({t, [&, arg] { laser.corruptNextScans(arg > 0 ? int(arg) : 1); }});
       else if (f.name == "truncate") plan.push_back({t, [&, arg] { laser.truncateNextScans(arg > 0 ? int(arg) : 1); }});
-      else if (f.name == "delay") plan.push_back({t, [&, arg] { laser.setReplyDelay(arg > 0 ? arg / 1000.0 : 0.1); }});
+      else if (f.name == "delay") plan.push_back({t, [&, arg] { laser.setReplyDelay(arg >= 0 ? arg / 1000.0 : 0.1); }});  // delay@T:0 ends it
       else if (f.name == "reboot") plan.push_back({t, [&] { laser.reboot(); }});
       else if (f.name == "servo-noreply") {
         plan.push_back({t, [&] { servo_emu.setNoReply(true); }});

@@ -23,7 +23,9 @@ struct LaserDriverOptions {
   int port = 10940;
   std::string serial_device;  ///< non-empty: the USB UTM-30LX on this serial device instead of TCP
   scip::UtmClientOptions client;
-  double backoff_min = 0.2, backoff_max = 5.0;  ///< reconnect waits [s]
+  /// Reconnect waits [s]: doubling from min to max. At most 1 s, so that the
+  /// stream is back within about 1 s of a fault's end (an attempt a second costs nothing).
+  double backoff_min = 0.2, backoff_max = 1.0;
 };
 
 /// A snapshot for diagnostics.

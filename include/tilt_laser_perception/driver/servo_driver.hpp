@@ -31,7 +31,7 @@ struct ServoDriverOptions {
   double timeout = 0.02;          ///< status packet wait beyond the transmit time [s]
   int max_failures = 5;           ///< consecutive failed reads before the port is reopened
   double backoff_min = 0.2;       ///< first wait before reopening [s]; doubles up to backoff_max
-  double backoff_max = 2.0;       ///< [s]
+  double backoff_max = 1.0;       ///< [s] (back within about 1 s of the fault's end)
   double recover_after = 1.0;     ///< a shutdown by a hardware error is cleared after this long [s]
   double joint_offset = 0.0;      ///< joint angle at the servo's centre [rad]
   int direction = 1;              ///< +1 or -1: joint angle = direction * servo angle + offset
