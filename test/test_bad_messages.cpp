@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <dirent.h>
+#include <signal.h>
 
 #include <cmath>
 #include <fstream>
@@ -287,6 +288,32 @@ TEST_F(BadMessages, ThePipelineKeepsSeeingAndCountsEachBadMessage) {
   ASSERT_FALSE(missed.empty());
   EXPECT_LT(std::stoul(missed), 50u);
   EXPECT_EQ(diagValue("sweep grouper", "loads (1: never restarted)"), "1");
+}
+
+TEST_F(BadMessages, ADeadManagerIsRespawnedAndSaysSo) {
+  // The launch files respawn the nodelet manager (and reload its nodelets):
+  // planes again, and each nodelet's diagnostics say it was loaded again.
+  const int pid = pidOf("__name:=tilt_laser_manager");
+  ASSERT_GT(pid, 0);
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  const ros::WallTime killed = ros::WallTime::now();
+  int back = 0;
+  while (ros::ok() && ros::WallTime::now() - killed < ros::WallDuration(30.0)) {
+    spinFor(0.1);
+    if (pidOf("__name:=tilt_laser_manager") > 0 && planesSince(killed) >= 1) {
+      back = 1;
+      break;
+    }
+  }
+  ASSERT_EQ(back, 1) << "no planes within 30 s of the manager's death";
+  const double seconds = (ros::WallTime::now() - killed).toSec();
+  std::printf("manager killed: planes again after %.1f s\n", seconds);
+  spinFor(1.5);
+  EXPECT_NE(pidOf("__name:=tilt_laser_manager"), pid);
+  for (const char* status : {"sweep grouper", "scan splitter", "laser"})
+    EXPECT_EQ(diagValue(status, "loads (1: never restarted)"), "2") << status;
+  EXPECT_NE(diagValue("sweep grouper", "__message").find("restarted (load 2)"), std::string::npos)
+      << diagValue("sweep grouper", "__message");
 }
 
 int main(int argc, char** argv) {

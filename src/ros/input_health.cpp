@@ -17,14 +17,19 @@ void InputHealth::init(const std::string& name, ros::NodeHandle& pnh, double win
   name_ = name;
   window_ = window;
   refused_ = core::ReasonCounts(window);
+  loads_ = countLoad(pnh, name);
+  loaded_at_ = ros::WallTime::now();
+}
+
+int countLoad(ros::NodeHandle& pnh, const std::string& name) {
   // The parameter server outlives a nodelet manager: a count above 1 means
   // this nodelet was loaded again (the manager died and was respawned).
   int loads = 0;
   pnh.param("loads", loads, 0);
-  loads_ = loads + 1;
-  pnh.setParam("loads", loads_);
-  loaded_at_ = ros::WallTime::now();
-  if (loads_ > 1) ROS_WARN("%s: loaded for the %d. time (restarted)", name_.c_str(), loads_);
+  ++loads;
+  pnh.setParam("loads", loads);
+  if (loads > 1) ROS_WARN("%s: loaded for the %d. time (restarted)", name.c_str(), loads);
+  return loads;
 }
 
 void InputHealth::refuse(const std::string& reason, const std::string& detail) {

@@ -1,4 +1,5 @@
 #include "tilt_laser_perception/ros/tilt_laser_driver_nodelet.hpp"
+#include "tilt_laser_perception/ros/input_health.hpp"
 
 #include <boost/make_shared.hpp>
 #include <pluginlib/class_list_macros.hpp>
@@ -34,6 +35,8 @@ void TiltLaserDriverNodelet::log(int level, const std::string& msg) {
 void TiltLaserDriverNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
+  loads_ = countLoad(pnh, getName());
+  loaded_at_ = ros::WallTime::now();
 
   driver::LaserDriverOptions lo;
   pnh.param<std::string>("laser_ip", lo.host, "192.168.0.10");
@@ -197,6 +200,8 @@ void TiltLaserDriverNodelet::diagnoseLaser(diagnostic_updater::DiagnosticStatusW
                       slow = slow_reply_win_.recent(now);
   if (!s.streaming)
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "not streaming: %s", s.last_error.c_str());
+  else if (loads_ > 1 && (ros::WallTime::now() - loaded_at_).toSec() < 60.0)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "restarted (load %d)", loads_);
   else if (delayed + impossible + slow > 0)
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                   "replies delayed: %lu scans late, %lu stamped after they arrived, %lu slow clock readings "
@@ -206,6 +211,7 @@ void TiltLaserDriverNodelet::diagnoseLaser(diagnostic_updater::DiagnosticStatusW
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "scan rate %.1f Hz (expected 40)", s.scan_rate);
   else
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "streaming");
+  stat.add("loads (1: never restarted)", loads_);
   stat.add("scans arrived late (last 10 s)", delayed);
   stat.add("scans stamped after they arrived (last 10 s)", impossible);
   stat.add("clock readings left out (round trip too long)", s.clock_rejected);

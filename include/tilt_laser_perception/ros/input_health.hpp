@@ -20,6 +20,11 @@
 
 namespace tilt_laser_perception {
 
+/// How many times this nodelet has been loaded since the launch (the launch
+/// files set "~loads" to 0; a respawned manager loads its nodelets again):
+/// reads, counts and stores "~loads". Above 1: a restart, logged as a warning.
+int countLoad(ros::NodeHandle& pnh, const std::string& name);
+
 class InputHealth {
  public:
   /// `name` prefixes the log lines; the load count is kept in `pnh`'s "~loads".
