@@ -650,6 +650,20 @@ double g_now = 0.0;
 // away every 25 ms, polling as it goes. Arrival and poll times are
 // `wall0 + t` (a bag played again keeps its stamps but not the wall clock).
 // Finished sweeps go to `sweeps` (when given); after_poll runs after each poll.
+/// drive()'s scan line: 11 beams of a wall 2 m away, one segment over all of them.
+LineInput wallLine(double stamp, double time_increment = 0.001) {
+  LineInput in;
+  in.ranges.assign(11, 2.0f);
+  in.angle_min = -0.1;
+  in.angle_increment = 0.02;
+  in.range_min = 0.1;
+  in.range_max = 30;
+  in.stamp = stamp;
+  in.time_increment = time_increment;
+  in.segments = {{0, 10}};
+  return in;
+}
+
 void drive(SweepAssembler& a, const std::function<double(double)>& q_at, double seconds, double wall0,
            std::vector<SweepResult>* sweeps, const std::function<bool(double)>& skip_joint = nullptr,
            const std::function<void()>& after_poll = nullptr,
@@ -660,16 +674,7 @@ void drive(SweepAssembler& a, const std::function<double(double)>& q_at, double 
     g_now = wall;
     if (!skip_joint || !skip_joint(t)) a.addJoint(t, q_at(t));
     if (t >= next_scan + 0.025) {
-      LineInput in;
-      in.ranges.assign(11, 2.0f);
-      in.angle_min = -0.1;
-      in.angle_increment = 0.02;
-      in.range_min = 0.1;
-      in.range_max = 30;
-      in.stamp = next_scan;
-      in.time_increment = 0.001;
-      in.segments = {{0, 10}};
-      if (!skip_line || !skip_line(next_scan)) a.addLine(in, wall);
+      if (!skip_line || !skip_line(next_scan)) a.addLine(wallLine(next_scan), wall);
       next_scan += 0.025;
     }
     SweepResult r;
@@ -1017,18 +1022,7 @@ TEST(SweepAssembler, ALineWithAnAbsurdTimeIncrementIsDroppedAndHoldsNothingUp) {
   // states 1000 s ahead and the lines behind it with it (11 real lines were
   // lost); it is malformed at once.
   for (const double ti : {1.0, -0.001, std::numeric_limits<double>::quiet_NaN()}) {
-    const InjectedRun r = runInjected(1.3, [ti](SweepAssembler& a) {
-      LineInput in;
-      in.ranges.assign(11, 2.0f);
-      in.angle_min = -0.1;
-      in.angle_increment = 0.02;
-      in.range_min = 0.1;
-      in.range_max = 30;
-      in.stamp = 1.2876;
-      in.time_increment = ti;
-      in.segments = {{0, 10}};
-      a.addLine(in, g_now);
-    });
+    const InjectedRun r = runInjected(1.3, [ti](SweepAssembler& a) { a.addLine(wallLine(1.2876, ti), g_now); });
     expectSameSweeps(r);
     EXPECT_EQ(r.counters.lines_bad, 1u) << ti;
     EXPECT_EQ(r.counters.lines_no_joint, 0u) << ti;
@@ -1036,17 +1030,7 @@ TEST(SweepAssembler, ALineWithAnAbsurdTimeIncrementIsDroppedAndHoldsNothingUp) {
 }
 
 TEST(SweepAssembler, ALineStampedFarBackIsDroppedNotARestart) {
-  const InjectedRun r = runInjected(2.0, [](SweepAssembler& a) {
-    LineInput in;
-    in.ranges.assign(11, 2.0f);
-    in.angle_min = -0.1;
-    in.angle_increment = 0.02;
-    in.range_min = 0.1;
-    in.range_max = 30;
-    in.stamp = 0.1;
-    in.time_increment = 0.001;
-    a.addLine(in, g_now);
-  });
+  const InjectedRun r = runInjected(2.0, [](SweepAssembler& a) { a.addLine(wallLine(0.1), g_now); });
   expectSameSweeps(r);
   EXPECT_EQ(r.counters.time_jumps, 0u);
   EXPECT_EQ(r.counters.lines_out_of_order, 1u);
@@ -1067,4 +1051,20 @@ TEST(SweepAssembler, ASweepThatAnOutageInterruptedIsDroppedNotPublishedLate) {
   EXPECT_EQ(sweeps[0].dropped_lines, 0);
   EXPECT_EQ(sweeps[1].dropped_lines, 1);
   EXPECT_EQ(a.counters().sweeps_dropped, 1u);
+}
+
+TEST(SweepAssembler, ParametersAreValidatedWithTheirNames) {
+  EXPECT_EQ(SweepParams().validate(), "");
+  SweepParams p;
+  p.reversal_hysteresis = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(p.validate().find("reversal_hysteresis"), std::string::npos);
+  p = SweepParams();
+  p.max_wait = -1;
+  EXPECT_NE(p.validate().find("max_wait"), std::string::npos);
+  p = SweepParams();
+  p.max_lines = 5;
+  EXPECT_NE(p.validate().find("max_sweep_lines"), std::string::npos);
+  p = SweepParams();
+  p.scan_limits.max_ranges = 0;
+  EXPECT_NE(p.validate().find("max_ranges"), std::string::npos);
 }

@@ -149,3 +149,13 @@ TEST(InputCheck, HealthTellsThePresent) {
   s.now = 120.0;
   EXPECT_EQ(judgeFlow(s, 5.0, why), Health::Stale) << why;  // the laser went silent
 }
+
+TEST(InputCheck, ParametersAreValidatedWithTheirNames) {
+  EXPECT_EQ(ScanLimits().validate(), "");
+  ScanLimits l;
+  l.max_ranges = 1;
+  EXPECT_NE(ScanLimits(l).validate().find("max_ranges"), std::string::npos);
+  l = ScanLimits();
+  l.max_duration = kNan;
+  EXPECT_NE(l.validate().find("max_scan_duration"), std::string::npos);
+}

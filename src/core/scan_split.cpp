@@ -69,6 +69,13 @@ std::string SplitParams::validate() const {
   return s.str();
 }
 
+std::string ScanLimits::validate() const {
+  if (!(max_ranges >= 2 && max_ranges <= 1000000)) return "max_ranges must be in [2, 1000000], got " + std::to_string(max_ranges);
+  if (!(max_duration > 0.0 && max_duration <= 10.0))
+    return "max_scan_duration must be in (0, 10] s, got " + std::to_string(max_duration);
+  return std::string();
+}
+
 ScanError checkScan(const ScanView& scan, const ScanLimits& limits) {
   if (scan.size == 0 || scan.ranges == nullptr) return ScanError::Empty;
   if (scan.size > limits.max_ranges) return ScanError::TooManyRanges;

@@ -12,6 +12,18 @@ namespace {
 double cpuNow() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 }  // namespace
 
+std::string SweepParams::validate() const {
+  const auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v > lo && v <= hi; };
+  if (!in(reversal_hysteresis, 0.0, 1.0)) return "reversal_hysteresis must be in (0, 1] rad";
+  if (!in(max_joint_gap, 0.0, 10.0)) return "max_joint_gap must be in (0, 10] s";
+  if (!(std::isfinite(max_wait) && max_wait >= 0.0 && max_wait <= 10.0)) return "max_wait must be in [0, 10] s";
+  if (!in(max_dropped_fraction, -1e-12, 1.0)) return "max_dropped_fraction must be in [0, 1]";
+  if (!(min_lines >= 1 && max_lines >= min_lines)) return "need 1 <= min_sweep_lines <= max_sweep_lines";
+  if (!in(time_jump_back, 0.0, 1e6)) return "time_jump_back must be > 0 s";
+  const std::string limits = scan_limits.validate();
+  return limits.empty() ? grouping.validate() : limits;
+}
+
 bool JointBuffer::add(double t, double q) {
   if (!samples_.empty() && t <= samples_.back().first) return false;
   samples_.emplace_back(t, q);

@@ -59,6 +59,17 @@ unsigned long InputHealth::missedUpstream() const {
   return n;
 }
 
+core::Health InputHealth::judge(const core::WindowCounter& in, const core::WindowCounter& out, double first_input,
+                               double stale_after, std::string& why) const {
+  core::FlowState flow;
+  flow.now = now();
+  flow.first_input = first_input;
+  flow.last_input = in.last();
+  flow.last_output = out.last();
+  flow.recent_problems = refused_.recent(flow.now);
+  return core::judgeFlow(flow, stale_after, why);
+}
+
 void InputHealth::report(diagnostic_updater::DiagnosticStatusWrapper& stat, core::Health level,
                          const std::string& why) const {
   using diagnostic_msgs::DiagnosticStatus;

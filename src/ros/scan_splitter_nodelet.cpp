@@ -21,15 +21,13 @@ void ScanSplitterNodelet::onInit() {
   int max_ranges = static_cast<int>(limits.max_ranges);
   pnh.param("max_ranges", max_ranges, max_ranges);
   pnh.param("max_scan_duration", limits.max_duration, limits.max_duration);
-  if (!(max_ranges >= 2 && max_ranges <= 1000000)) {
-    NODELET_ERROR("~max_ranges must be in [2, 1000000], got %d: using 10000", max_ranges);
-    max_ranges = 10000;
+  limits.max_ranges = static_cast<std::size_t>(std::max(0, max_ranges));
+  const std::string problem = limits.validate();
+  if (!problem.empty()) {
+    NODELET_ERROR("%s: using %zu ranges and %.1f s", problem.c_str(), core::ScanLimits().max_ranges,
+                  core::ScanLimits().max_duration);
+    limits = core::ScanLimits();
   }
-  if (!(limits.max_duration > 0.0 && limits.max_duration <= 10.0)) {
-    NODELET_ERROR("~max_scan_duration must be in (0, 10] s: using 0.5");
-    limits.max_duration = 0.5;
-  }
-  limits.max_ranges = static_cast<std::size_t>(max_ranges);
   splitter_.setLimits(limits);
 
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<ScanSplitterConfig>>(reconfigure_mutex_, pnh);
@@ -146,15 +144,7 @@ void ScanSplitterNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   const double t = InputHealth::now();
   core::Health level = core::Health::Ok;
   std::string why = "idle: nobody subscribes to the outputs";
-  if (scan_sub_) {
-    core::FlowState flow;
-    flow.now = t;
-    flow.first_input = first_scan_;
-    flow.last_input = scans_in_.last();
-    flow.last_output = scans_out_.last();
-    flow.recent_problems = health_.refused().recent(t);
-    level = core::judgeFlow(flow, 5.0, why);
-  }
+  if (scan_sub_) level = health_.judge(scans_in_, scans_out_, first_scan_, 5.0, why);
   health_.report(stat, level, why);
   stat.add("scans received", received_);
   stat.add("scans received (last 10 s)", scans_in_.recent(t));

@@ -62,14 +62,13 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("max_stamp_age", stamp_limits_.max_age, stamp_limits_.max_age);
   pnh.param("max_stamp_ahead", stamp_limits_.max_ahead, stamp_limits_.max_ahead);
   pnh.param("stale_after", stale_after_, stale_after_);
-  if (!(max_ranges >= 2 && max_ranges <= 1000000)) {
-    NODELET_ERROR("~max_ranges must be in [2, 1000000], got %d: using 10000", max_ranges);
-    max_ranges = 10000;
-  }
-  sweep_params_.scan_limits.max_ranges = static_cast<std::size_t>(max_ranges);
-  if (!(sweep_params_.scan_limits.max_duration > 0.0 && sweep_params_.scan_limits.max_duration <= 10.0)) {
-    NODELET_ERROR("~max_scan_duration must be in (0, 10] s: using 0.5");
-    sweep_params_.scan_limits.max_duration = 0.5;
+  sweep_params_.scan_limits.max_ranges = static_cast<std::size_t>(std::max(0, max_ranges));
+  const std::string problem = sweep_params_.validate();
+  if (!problem.empty()) {
+    NODELET_ERROR("invalid sweep or grouping parameters (%s): using the defaults", problem.c_str());
+    const bool per_beam = sweep_params_.per_beam;
+    sweep_params_ = core::SweepParams();
+    sweep_params_.per_beam = per_beam;
   }
   if (!std::isfinite(stamp_limits_.max_age) || !std::isfinite(stamp_limits_.max_ahead)) {
     NODELET_ERROR("~max_stamp_age and ~max_stamp_ahead must be finite (0: no limit): using 5 and 1 s");
@@ -79,25 +78,7 @@ void SweepGrouperNodelet::onInit() {
     NODELET_ERROR("~stale_after must be in [1, 600] s: using 5");
     stale_after_ = 5.0;
   }
-  const double numbers[] = {sweep_params_.reversal_hysteresis, sweep_params_.max_joint_gap, sweep_params_.max_wait};
-  if (!(std::isfinite(numbers[0]) && numbers[0] > 0.0 && std::isfinite(numbers[1]) && numbers[1] > 0.0 &&
-        std::isfinite(numbers[2]) && numbers[2] >= 0.0 && numbers[2] <= 10.0 && sweep_params_.min_lines >= 1 &&
-        sweep_params_.max_lines >= sweep_params_.min_lines)) {
-    NODELET_ERROR("invalid sweep parameters (reversal_hysteresis, max_joint_gap > 0; max_wait in [0, 10] s; "
-                  "1 <= min_sweep_lines <= max_sweep_lines): using the defaults");
-    const core::GroupingParams keep = sweep_params_.grouping;
-    const core::ScanLimits limits = sweep_params_.scan_limits;
-    sweep_params_ = core::SweepParams();
-    sweep_params_.grouping = keep;
-    sweep_params_.scan_limits = limits;
-    pnh.param("per_beam_tilt", sweep_params_.per_beam, true);
-  }
   health_.init(getName(), pnh);
-  const std::string problem = g.validate();
-  if (!problem.empty()) {
-    NODELET_ERROR("invalid grouping parameters (%s): using the defaults", problem.c_str());
-    sweep_params_.grouping = core::GroupingParams();
-  }
   if (!(map_params_.resolution > 0.001 && size_x > 0 && size_y > 0 && size_x / map_params_.resolution <= 4000 &&
         size_y / map_params_.resolution <= 4000)) {
     NODELET_ERROR("invalid height map size or resolution (at most 4000 x 4000 cells): using 4 m x 4 m at 1 cm");
@@ -378,14 +359,9 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   // The present: scans in and sweeps out over the last seconds. A sweep may
   // take a while (a slow tilt), so the stale time is at least three of them.
   const double t = InputHealth::now();
-  core::FlowState flow;
-  flow.now = t;
-  flow.first_input = first_scan_;
-  flow.last_input = scans_in_.last();
-  flow.last_output = sweeps_out_.last();
-  flow.recent_problems = health_.refused().recent(t);
   std::string why;
-  const core::Health level = core::judgeFlow(flow, std::max(stale_after_, 3.0 * last_sweep_duration_), why);
+  const core::Health level =
+      health_.judge(scans_in_, sweeps_out_, first_scan_, std::max(stale_after_, 3.0 * last_sweep_duration_), why);
   health_.report(stat, level,
                  why + "; " + std::to_string(sweeps_out_.recent(t)) + " sweeps and " +
                      std::to_string(scans_in_.recent(t)) + " scans in the last 10 s");

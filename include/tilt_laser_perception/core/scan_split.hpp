@@ -129,6 +129,8 @@ struct ScanView {
 struct ScanLimits {
   std::size_t max_ranges = 10000;  ///< more beams than any 2D lidar gives (the UTM-30LX: 1081 of 1440 per turn)
   double max_duration = 0.5;       ///< (n - 1) * time_increment and scan_time at most [s] (2 Hz scanners)
+  /// Empty when valid (max_ranges in [2, 1000000], max_duration in (0, 10] s), else what is wrong.
+  std::string validate() const;
 };
 
 /// Why a scan is rejected.

@@ -62,6 +62,8 @@ struct SweepParams {
   ScanLimits scan_limits;              ///< lines beyond these are dropped as malformed
   bool per_beam = true;                ///< joint angle at every beam's time; false: one per line, at its stamp (as tools that look up one tf per scan do)
   GroupingParams grouping;
+  /// Empty when valid (these, the scan limits and the grouping's), else a message naming the parameter.
+  std::string validate() const;
 };
 
 /// A scan line put in 3D (organized: one entry per beam, NaN where there is no return).

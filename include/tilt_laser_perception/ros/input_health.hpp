@@ -39,6 +39,10 @@ class InputHealth {
   /// The wall clock or the ROS clock, as the checks need it [s].
   static double now() { return ros::Time::now().toSec(); }
   const core::ReasonCounts& refused() const { return refused_; }
+  /// The stage's health now (core::judgeFlow): inputs and outputs counted
+  /// over the window, the first input's time, refusals of the window.
+  core::Health judge(const core::WindowCounter& in, const core::WindowCounter& out, double first_input,
+                     double stale_after, std::string& why) const;
   /// Adds the refusals (recent and total, by reason), the losses upstream and
   /// the load count to a diagnostic status; a load after the first (a
   /// respawned manager) is said in the summary's words for a minute.
