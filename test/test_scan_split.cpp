@@ -283,7 +283,7 @@ TEST(Split, BadScansAreRejected) {
   v.intensities = intens.data();
   v.intensities_size = intens.size();
   EXPECT_EQ(splitter.split(v, r), ScanError::IntensitySize);
-  for (double inc : {0.0, -kInc, std::nan("")}) {
+  for (double inc : {0.0, std::nan("")}) {
     v = s.view();
     v.angle_increment = inc;
     EXPECT_EQ(splitter.split(v, r), ScanError::BadIncrement) << inc;
@@ -300,6 +300,40 @@ TEST(Split, BadScansAreRejected) {
   // A good scan after the bad ones is split as before.
   EXPECT_EQ(splitter.split(s.view(), r), ScanError::None);
   EXPECT_EQ(r.segments.size(), 1u);
+}
+
+TEST(Split, ScansAsRealDriversPublishThemAreSplit) {
+  // Issue 15: a laser mounted upside down (negative increment: beam i at
+  // angle_min + i * increment, as laser_geometry has it) and angle_max
+  // rounded or one increment off were dropped whole.
+  SyntheticScan s({{{3, -1}, {3, 1}}, {{3, 1}, {0.5, 1}}});
+  ScanSplitter splitter;
+  SplitResult up, down;
+  ASSERT_EQ(splitter.split(s.view(), up), ScanError::None);
+  ASSERT_EQ(up.segments.size(), 2u);
+  // The same beams in the other order: beam i of the mirrored scan is beam n-1-i.
+  std::vector<float> reversed(s.ranges.rbegin(), s.ranges.rend());
+  ScanView v = s.view();
+  v.ranges = reversed.data();
+  v.angle_min = s.view().angle_max;
+  v.angle_increment = -kInc;
+  v.angle_max = s.view().angle_min;
+  ASSERT_EQ(splitter.split(v, down), ScanError::None);
+  ASSERT_EQ(down.segments.size(), up.segments.size());
+  const int n = static_cast<int>(s.ranges.size());
+  for (std::size_t k = 0; k < up.segments.size(); ++k) {
+    const Segment& a = up.segments[k];
+    const Segment& b = down.segments[down.segments.size() - 1 - k];
+    EXPECT_EQ(b.first, n - 1 - a.last);
+    EXPECT_EQ(b.last, n - 1 - a.first);
+    EXPECT_NEAR((b.start - a.end).norm(), 0.0, 1e-6);
+    EXPECT_NEAR((b.end - a.start).norm(), 0.0, 1e-6);
+  }
+  for (const double off : {1.0, -1.0, 0.4}) {  // angle_max one increment off, or rounded
+    v = s.view();
+    v.angle_max += off * kInc;
+    EXPECT_EQ(splitter.split(v, down), ScanError::None) << off;
+  }
 }
 
 TEST(Split, AllInvalidScanIsValidAndEmpty) {

@@ -120,36 +120,44 @@ TEST_F(SplitterNodeTest, SplitsGoodScansDropsBadOnesAndKeepsRunning) {
   }
 
   // Malformed scans: each is dropped, none is published, the nodelet goes on.
-  std::vector<sensor_msgs::LaserScan> bad(9, cornerScan(2));
+  std::vector<sensor_msgs::LaserScan> bad(8, cornerScan(2));
   bad[0].ranges.clear();                                // empty
-  bad[1].intensities.assign(10, 1.0f);                  // sizes differ
+  bad[1].angle_increment = std::nanf("");               // NaN increment
   bad[2].angle_increment = 0.0;                         // zero increment
-  bad[3].angle_increment = std::nanf("");               // NaN increment
-  bad[4].angle_max = bad[4].angle_min + 500 * bad[4].angle_increment;  // inconsistent with 1081 ranges
-  bad[5].time_increment = std::nanf("");                // issue 20: this one aborted the nodelet manager
-  bad[6].time_increment = 1.0;                          // 1080 s per scan
-  bad[7].time_increment = -1e-5;
-  bad[8].ranges.assign(100000, 2.0f);                   // more than ~max_ranges (10000)
-  bad[8].angle_increment = (bad[8].angle_max - bad[8].angle_min) / 99999;
-  bad[8].time_increment = 0.0;
+  bad[3].angle_max = bad[3].angle_min + 500 * bad[3].angle_increment;  // inconsistent with 1081 ranges
+  bad[4].time_increment = std::nanf("");                // issue 20: this one aborted the nodelet manager
+  bad[5].time_increment = 1.0;                          // 1080 s per scan
+  bad[6].time_increment = -1e-5;
+  bad[7].ranges.assign(100000, 2.0f);                   // more than ~max_ranges (10000)
+  bad[7].angle_increment = (bad[7].angle_max - bad[7].angle_min) / 99999;
+  bad[7].time_increment = 0.0;
   for (const auto& b : bad) scan_pub_.publish(b);
-  scan_pub_.publish(cornerScan(3));  // and a good one after them
-  ASSERT_TRUE(waitFor([&] { return segments_.size() == 2; }, 10.0)) << "splitter stopped after bad scans";
+  // Odd but valid (issue 15): intensities of another length (left out, the
+  // ranges split), angle_max one increment off.
+  sensor_msgs::LaserScan odd = cornerScan(3);
+  odd.intensities.assign(10, 1.0f);
+  odd.angle_max += odd.angle_increment;
+  scan_pub_.publish(odd);
+  scan_pub_.publish(cornerScan(4));  // and a good one after them
+  ASSERT_TRUE(waitFor([&] { return segments_.size() == 3; }, 10.0)) << "splitter stopped after bad scans";
   EXPECT_EQ(segments_[1].header.stamp, ros::Time(1003, 0));
+  EXPECT_EQ(segments_[1].segments.size(), 2u);
+  EXPECT_EQ(segments_[2].header.stamp, ros::Time(1004, 0));
   ros::WallDuration(0.3).sleep();
   ros::spinOnce();
-  EXPECT_EQ(segments_.size(), 2u);
+  EXPECT_EQ(segments_.size(), 3u);
 
-  ASSERT_TRUE(waitFor([&] { return diagValue("scans dropped") == "9"; }, 10.0))
-      << "diagnostics never counted 9 dropped scans, last: " << diagValue("scans dropped");
+  ASSERT_TRUE(waitFor([&] { return diagValue("scans dropped") == "8"; }, 10.0))
+      << "diagnostics never counted 8 dropped scans, last: " << diagValue("scans dropped");
   std::lock_guard<std::mutex> l(m_);
-  EXPECT_EQ(diagValue("scans published"), "2");
+  EXPECT_EQ(diagValue("scans published"), "3");
+  EXPECT_EQ(diagValue("intensities left out (other length than ranges)"), "1");
   // by reason, each over the recent window and in total
   EXPECT_EQ(diagValue("dropped: scan: empty scan"), "1 recent, 1 total");
-  EXPECT_EQ(diagValue("dropped: scan: angle_increment zero, negative or not finite"), "2 recent, 2 total");
+  EXPECT_EQ(diagValue("dropped: scan: angle_increment zero or not finite"), "2 recent, 2 total");
   EXPECT_EQ(diagValue("dropped: scan: time_increment/scan_time not finite, negative or too long"), "3 recent, 3 total");
   EXPECT_EQ(diagValue("dropped: scan: more ranges than max_ranges"), "1 recent, 1 total");
-  EXPECT_EQ(diagValue("inputs dropped (total)"), "9");
+  EXPECT_EQ(diagValue("inputs dropped (total)"), "8");
 }
 
 TEST_F(SplitterNodeTest, DynamicReconfigureChangesTheSplit) {

@@ -39,8 +39,8 @@ const char* scanErrorName(ScanError e) {
     case ScanError::None: return "none";
     case ScanError::Empty: return "empty scan";
     case ScanError::IntensitySize: return "intensities and ranges differ in size";
-    case ScanError::BadIncrement: return "angle_increment zero, negative or not finite";
-    case ScanError::InconsistentAngles: return "angle_min + (n-1)*angle_increment != angle_max";
+    case ScanError::BadIncrement: return "angle_increment zero or not finite";
+    case ScanError::InconsistentAngles: return "angle_min + (n-1)*angle_increment more than an increment off angle_max";
     case ScanError::BadRangeLimits: return "range_min/range_max invalid";
     case ScanError::TooManyRanges: return "more ranges than max_ranges";
     case ScanError::BadTimeIncrement: return "time_increment/scan_time not finite, negative or too long";
@@ -80,10 +80,13 @@ ScanError checkScan(const ScanView& scan, const ScanLimits& limits) {
   if (scan.size == 0 || scan.ranges == nullptr) return ScanError::Empty;
   if (scan.size > limits.max_ranges) return ScanError::TooManyRanges;
   if (scan.intensities_size != 0 && scan.intensities_size != scan.size) return ScanError::IntensitySize;
-  if (!std::isfinite(scan.angle_increment) || !(scan.angle_increment > 0.0)) return ScanError::BadIncrement;
+  // A negative increment is a laser mounted upside down: beam i is still at
+  // angle_min + i * increment (as laser_geometry projects it).
+  if (!std::isfinite(scan.angle_increment) || !(std::abs(scan.angle_increment) > 0.0)) return ScanError::BadIncrement;
   if (!std::isfinite(scan.angle_min) || !std::isfinite(scan.angle_max)) return ScanError::InconsistentAngles;
+  // angle_max as drivers publish it: one increment off, or rounded (it is not used).
   const double expected_max = scan.angle_min + static_cast<double>(scan.size - 1) * scan.angle_increment;
-  if (std::abs(expected_max - scan.angle_max) > 0.5 * scan.angle_increment + 1e-9)
+  if (std::abs(expected_max - scan.angle_max) > std::abs(scan.angle_increment) + 1e-6)
     return ScanError::InconsistentAngles;
   if (!std::isfinite(scan.range_min) || std::isnan(scan.range_max) || !(scan.range_max > scan.range_min))
     return ScanError::BadRangeLimits;

@@ -8,8 +8,11 @@ core::ScanView toScanView(const sensor_msgs::LaserScan& scan) {
   core::ScanView v;
   v.ranges = scan.ranges.data();
   v.size = scan.ranges.size();
-  v.intensities = scan.intensities.empty() ? nullptr : scan.intensities.data();
-  v.intensities_size = scan.intensities.size();
+  // Intensities of another length than the ranges (some drivers publish
+  // them so): the ranges are kept, the intensities left out.
+  const bool intensities = !scan.intensities.empty() && scan.intensities.size() == scan.ranges.size();
+  v.intensities = intensities ? scan.intensities.data() : nullptr;
+  v.intensities_size = intensities ? scan.intensities.size() : 0;
   v.angle_min = scan.angle_min;
   v.angle_max = scan.angle_max;
   v.angle_increment = scan.angle_increment;

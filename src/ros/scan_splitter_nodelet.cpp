@@ -114,6 +114,11 @@ void ScanSplitterNodelet::split(const ros::MessageEvent<sensor_msgs::LaserScan c
   if (const unsigned long missed = health_.sequence(event.getPublisherName(), scan.header.seq))
     NODELET_WARN_THROTTLE(5.0, "%lu scans missed before seq %u (a full queue upstream, a slow link); %lu so far", missed,
                           scan.header.seq, health_.missedUpstream());
+  if (!scan.intensities.empty() && scan.intensities.size() != scan.ranges.size()) {
+    ++intensities_dropped_;
+    NODELET_WARN_ONCE("scans with %zu intensities for %zu ranges: the intensities are left out, the ranges split",
+                      scan.intensities.size(), scan.ranges.size());
+  }
   const auto t0 = std::chrono::steady_clock::now();
   const core::ScanError err = splitter_.split(toScanView(scan), result_);
   const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -151,6 +156,7 @@ void ScanSplitterNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("scans published", published_);
   stat.add("scans published (last 10 s)", scans_out_.recent(t));
   stat.add("scans dropped", dropped_);
+  stat.add("intensities left out (other length than ranges)", intensities_dropped_);
   stat.add("split time mean [us]", split_count_ ? 1e6 * split_time_sum_ / split_count_ : 0.0);
   stat.add("split time max [us]", 1e6 * split_time_max_);
   split_time_sum_ = split_time_max_ = 0.0;

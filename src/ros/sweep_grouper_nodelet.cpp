@@ -276,7 +276,7 @@ void SweepGrouperNodelet::onScan(const sensor_msgs::LaserScanConstPtr& scan, con
          laser_frame_ + "'");
   core::LineInput in;
   in.ranges = scan->ranges;
-  in.intensities = scan->intensities;
+  if (scan->intensities.size() == scan->ranges.size()) in.intensities = scan->intensities;  // else left out
   in.angle_min = scan->angle_min;
   in.angle_increment = scan->angle_increment;
   in.range_min = scan->range_min;

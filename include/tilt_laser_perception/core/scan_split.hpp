@@ -138,8 +138,8 @@ enum class ScanError : std::uint8_t {
   None = 0,
   Empty,                 ///< no ranges
   IntensitySize,         ///< intensities present with another size than ranges
-  BadIncrement,          ///< angle_increment zero, negative or not finite
-  InconsistentAngles,    ///< angle_min + (n-1) * increment != angle_max
+  BadIncrement,          ///< angle_increment zero or not finite (negative is fine: an upside-down laser)
+  InconsistentAngles,    ///< angle_min + (n-1) * increment more than one increment off angle_max
   BadRangeLimits,        ///< range_min/max not finite or range_max <= range_min
   TooManyRanges,         ///< more ranges than ScanLimits::max_ranges
   BadTimeIncrement,      ///< time_increment or scan_time not finite, negative, or the scan longer than max_duration
@@ -149,7 +149,8 @@ constexpr int kScanErrorCount = 8;
 /// Short name of a scan error ("empty", ...).
 const char* scanErrorName(ScanError e);
 
-/// Checks every field of a scan before splitting. Tolerates angle_max off by up to half an increment.
+/// Checks every field of a scan before splitting. Beam i is at angle_min + i * increment (negative
+/// increments too); angle_max may be off by up to one increment (drivers round it).
 ScanError checkScan(const ScanView& scan, const ScanLimits& limits = ScanLimits());
 
 /// Result of a split; reuse one across scans so that steady state does not allocate.

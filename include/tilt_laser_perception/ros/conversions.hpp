@@ -12,7 +12,8 @@
 
 namespace tilt_laser_perception {
 
-/// A view of a LaserScan for the splitter (points into the message).
+/// A view of a LaserScan for the splitter (points into the message). Intensities of
+/// another length than the ranges are left out (the ranges are kept).
 core::ScanView toScanView(const sensor_msgs::LaserScan& scan);
 
 /// Fills a ScanSegments message from a split result (header copied as given).

@@ -51,7 +51,7 @@ class ScanSplitterNodelet : public nodelet::Nodelet {
   ros::Timer diagnostics_timer_;
 
   // counters for diagnostics
-  unsigned long received_ = 0, published_ = 0, dropped_ = 0;
+  unsigned long received_ = 0, published_ = 0, dropped_ = 0, intensities_dropped_ = 0;
   InputHealth health_;  // refused scans by reason, sequence gaps per publisher, loads
   core::WindowCounter scans_in_{10.0}, scans_out_{10.0};
   double first_scan_ = -1.0;
