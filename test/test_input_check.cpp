@@ -119,9 +119,9 @@ TEST(InputCheck, WindowCountsForgetWhatIsOlderThanTheWindow) {
   EXPECT_EQ(c.total(), 42u);
 
   ReasonCounts r(10.0);
-  r.add("scan: empty scan", 10.0);
-  r.add("scan: empty scan", 11.0);
-  r.add("joint_states: stamp zero (not set)", 12.0);
+  EXPECT_EQ(r.add("scan: empty scan", 10.0), 1u);
+  EXPECT_EQ(r.add("scan: empty scan", 11.0), 2u);
+  EXPECT_EQ(r.add("joint_states: stamp zero (not set)", 12.0), 1u);
   EXPECT_EQ(r.recent(12.5), 3u);
   EXPECT_EQ(r.recent(21.5), 1u);
   EXPECT_EQ(r.total(), 3u);

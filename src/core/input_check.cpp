@@ -59,14 +59,15 @@ unsigned long WindowCounter::recent(double now) const {
   return n;
 }
 
-void ReasonCounts::add(const std::string& reason, double now) {
+unsigned long ReasonCounts::add(const std::string& reason, double now) {
   for (auto& [r, c] : counts_)
     if (r == reason) {
       c.add(now);
-      return;
+      return c.total();
     }
   counts_.emplace_back(reason, WindowCounter(window_));
   counts_.back().second.add(now);
+  return 1;
 }
 
 unsigned long ReasonCounts::recent(double now) const {

@@ -33,17 +33,13 @@ int countLoad(ros::NodeHandle& pnh, const std::string& name) {
 }
 
 void InputHealth::refuse(const std::string& reason, const std::string& detail) {
-  refused_.add(reason, now());
+  const unsigned long total = refused_.add(reason, now());
   static constexpr std::size_t kMaxReasons = 64;  // reasons are fixed strings; bound the map anyway
   const ros::WallTime t = ros::WallTime::now();
   auto it = last_warned_.find(reason);
   if (it != last_warned_.end() && (t - it->second).toSec() < 5.0) return;
   if (it == last_warned_.end() && last_warned_.size() >= kMaxReasons) last_warned_.clear();
   last_warned_[reason] = t;
-  const auto& e = refused_.entries(now());
-  unsigned long total = 0;
-  for (const auto& x : e)
-    if (x.reason == reason) total = x.total;
   ROS_WARN("%s: input dropped: %s%s%s (%lu so far)", name_.c_str(), reason.c_str(), detail.empty() ? "" : ": ",
            detail.c_str(), total);
 }

@@ -30,6 +30,7 @@ void fitLine(const Range& r, X x, Y y, double& a, double& b) {
 
 void ScanClock::reset() {
   scans_win_.clear();
+  delayed_in_window_ = 0;
   clock_.clear();
   have_origin_ = have_scan_ = false;
   min_rtt_ = 1e9;
@@ -127,7 +128,10 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
   ++scans_;
   const double s_abs = unwrap(stamp24);
   scans_win_.push_back(ScanSample{last_k_, s_abs, recv});
-  while (scans_win_.size() > 2 && recv - scans_win_.front().r > opt_.scan_window) scans_win_.pop_front();
+  while (scans_win_.size() > 2 && recv - scans_win_.front().r > opt_.scan_window) {
+    delayed_in_window_ -= scans_win_.front().delayed;
+    scans_win_.pop_front();
+  }
 
   // Sensor time of step 0: a line through (k, stamp + 0.5), narrowed to the
   // offsets every floor allows (floor <= a + p k < floor + 1).
@@ -167,9 +171,7 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
   // arrivals: the earliest in each run of 10 revolutions, jitter only delays).
   // While scans arrive late (a delayed reply within the window), the
   // arrivals tell nothing about the rate: the last rate found is kept.
-  bool disturbed = false;
-  for (const ScanSample& e : scans_win_) disturbed = disturbed || e.delayed;
-  if (!disturbed && scans_win_.size() >= 40 && scans_win_.back().r - scans_win_.front().r >= 2.0) {
+  if (delayed_in_window_ == 0 && scans_win_.size() >= 40 && scans_win_.back().r - scans_win_.front().r >= 2.0) {
     std::vector<std::pair<double, double>> minima;  // (k, arrival)
     const double r0 = scans_win_.front().r;
     for (std::size_t start = 0; start < scans_win_.size(); start += 10) {
@@ -212,6 +214,7 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
   if (latency_ > opt_.max_latency) {
     ++delayed_;
     scans_win_.back().delayed = true;
+    ++delayed_in_window_;
   }
   if (latency_ < opt_.min_latency) ++impossible_;
   return host;

@@ -122,6 +122,7 @@ class ScanClock {
   double g_stream_ = 0.0;        // sensor ms per host s from the stream (0: not yet)
   double offset_ = 0.0, drift_ppm_ = 0.0, latency_ = 0.0, sensor_time_ = 0.0;
   unsigned long scans_ = 0, jumps_ = 0, missed_ = 0, rejected_ = 0, delayed_ = 0, impossible_ = 0;
+  unsigned long delayed_in_window_ = 0;  // late scans in scans_win_ (no per-scan pass over the window)
   double last_rejected_rtt_ = 0.0;
 };
 
