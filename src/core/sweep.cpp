@@ -203,9 +203,10 @@ void SweepAssembler::beginSweep(double start) {
   current_ = SweepResult();
   current_.id = next_id_;
   current_.start = start;
-  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
-  if (base_pose_) base_pose_(start, base);
-  grouper_.reset((base * chain_.laserPose(0.0)).translation());
+  // The grouper learns where the sensor is from the sweep's first line, whose
+  // pose is known by then (at the reversal itself tf may not have arrived yet:
+  // the sensor was taken at the frame's origin and a plane's normal could
+  // point the other way than in a replay of the same data).
 }
 
 bool SweepAssembler::finishSweep(double end, SweepResult& out) {
@@ -276,6 +277,7 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
     s.origin = origin;
     segs.push_back(s);
   }
+  if (current_.lines.empty()) grouper_.reset((base * chain_.laserPose(0.0)).translation());
   grouper_.addLine(segs);
   current_.lines.push_back(std::move(line));
   current_.group_seconds += cpuNow() - t0;
