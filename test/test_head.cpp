@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 
 #include "tilt_laser_perception/sim/head.hpp"
 
@@ -74,6 +75,124 @@ TEST(HeadSimulator, ScanTakenWhileTiltingIsSkewedBeamByBeam) {
   }
   // One angle for the whole scan would be off by more than 2 cm.
   EXPECT_GT(max_skew, 0.02);
+}
+
+namespace {
+// A head tilting at 1 rad/s over a floor, scanned with the given rig errors.
+struct RigRun {
+  Scene floor = Scene::parse("objects:\n  - {type: floor, center: [0, 0], size: [40, 40]}\n");
+  HeadGeometry g;
+  ServoModel servo{0.5, 0.0};
+  NoiseParams exact;
+  explicit RigRun(double goal = 1.2) {
+    servo.setVelocityLimit(0.0, 1.0);
+    servo.setAccelerationLimit(0.0, 200.0);
+    servo.setGoal(0.0, goal);
+    exact.mode = NoiseMode::None;
+    exact.mixed_pixel_probability = 0.0;
+  }
+  HeadScan scan(HeadSimulator& sim, double t0) {
+    servo.state(t0 + 0.03);
+    HeadScan hs;
+    sim.scan(t0, hs);
+    return hs;
+  }
+};
+constexpr double kDeg = M_PI / 180.0;
+}  // namespace
+
+TEST(RigErrors, JointOffsetAndTimeOffsetMoveTheLasersTrueTilt) {
+  RigRun run;
+  RigErrors rig;
+  rig.joint_offset = 0.5 * kDeg;
+  rig.time_offset = 0.005;  // stamped 5 ms late: the beams were taken 5 ms before the stamp says
+  HeadSimulator sim(run.floor, run.g, run.servo, run.exact, 1, LidarModel(), rig);
+  const HeadScan hs = run.scan(sim, 0.1);
+  const LidarModel m;
+  for (int i : {0, 540, 1080})
+    EXPECT_NEAR(hs.tilt[i], run.servo.positionAt(0.1 - 0.005 + m.beamTime(i)) + 0.5 * kDeg, 1e-6) << i;
+  // The floor's range follows the true tilt, not the reported one.
+  const Eigen::Isometry3d T = run.g.laserPose(hs.tilt[540]);
+  const Eigen::Vector3d d = T.linear() * Eigen::Vector3d::UnitX();
+  EXPECT_NEAR(hs.scan.true_ranges[540], -T.translation().z() / d.z(), 1e-4);
+}
+
+TEST(RigErrors, BacklashLagsByHalfThePlayAndFlipsWithTheDirection) {
+  RigRun run(1.0);
+  RigErrors rig;
+  rig.backlash = 0.4 * kDeg;
+  HeadSimulator sim(run.floor, run.g, run.servo, run.exact, 1, LidarModel(), rig);
+  // Going down (tilt increasing): the laser trails the horn by 0.2 degrees.
+  HeadScan hs;
+  for (double t = 0.05; t < 0.3; t += 0.025) hs = run.scan(sim, t);
+  EXPECT_NEAR(hs.tilt[540] - run.servo.positionAt(0.275 + LidarModel().beamTime(540)), -0.2 * kDeg, 1e-6);
+  // At the goal (0.5 s) and back up: it trails the other way.
+  run.servo.setGoal(0.7, 0.5);
+  for (double t = 0.3; t < 1.0; t += 0.025) hs = run.scan(sim, t);
+  EXPECT_NEAR(hs.tilt[540] - run.servo.positionAt(0.975 + LidarModel().beamTime(540)), +0.2 * kDeg, 1e-6);
+}
+
+TEST(RigErrors, MountRollTiltsTheFloorAcrossTheScan) {
+  RigRun run(0.5);  // holds still at 0.5 rad
+  RigErrors rig;
+  rig.mount_roll = 1.0 * kDeg;
+  HeadSimulator ideal(run.floor, run.g, run.servo, run.exact, 1);
+  HeadSimulator rolled(run.floor, run.g, run.servo, run.exact, 1, LidarModel(), rig);
+  const HeadScan a = run.scan(ideal, 0.1), b = run.scan(rolled, 0.1);
+  // The front beam barely changes; beams to the sides change in opposite directions.
+  EXPECT_NEAR(a.scan.true_ranges[540], b.scan.true_ranges[540], 0.002);
+  const double left = b.scan.true_ranges[720] - a.scan.true_ranges[720];   // +45 deg
+  const double right = b.scan.true_ranges[360] - a.scan.true_ranges[360];  // -45 deg
+  EXPECT_GT(std::abs(left), 0.02);
+  EXPECT_LT(left * right, 0.0);
+}
+
+TEST(RigErrors, ReadingNoiseAndLineJitterHaveTheirSigma) {
+  RigRun run(3.0);
+  RigErrors rig;
+  rig.tilt_noise = 0.05 * kDeg;
+  rig.line_jitter = 0.002;
+  HeadSimulator sim(run.floor, run.g, run.servo, run.exact, 7, LidarModel(), rig);
+  double s2 = 0.0, j2 = 0.0;
+  const int n = 60;
+  for (int k = 0; k < n; ++k) {
+    const double t = 0.05 + 0.025 * k;  // moving at 1 rad/s throughout
+    const HeadScan hs = run.scan(sim, t);
+    const double e = run.servo.reading(t) - run.servo.positionAt(t);
+    s2 += e * e;
+    const double lag = hs.tilt[0] - run.servo.positionAt(t);  // 1 rad/s: radians = seconds
+    j2 += lag * lag;
+  }
+  EXPECT_NEAR(std::sqrt(s2 / n), 0.05 * kDeg, 0.015 * kDeg);
+  EXPECT_NEAR(std::sqrt(j2 / n), 0.002, 0.0006);
+}
+
+TEST(RigErrors, OptionsParseAndRefuseBadValues) {
+  RigErrors rig;
+  NoiseParams noise;
+  const char* args[] = {"x", "--realistic", "--mount-error-deg", "0.2,-0.4", "--time-offset-ms", "-3", "--scene"};
+  char** argv = const_cast<char**>(args);
+  int i = 1;
+  EXPECT_TRUE(parseRigOption(7, argv, i, rig, noise));
+  EXPECT_NEAR(rig.backlash, 0.3 * kDeg, 1e-12);
+  EXPECT_NEAR(noise.footprint, 1.0 * kDeg, 1e-12);
+  EXPECT_TRUE(rig.quantize);
+  ++i;
+  EXPECT_TRUE(parseRigOption(7, argv, i, rig, noise));
+  EXPECT_EQ(i, 3);
+  EXPECT_NEAR(rig.mount_roll, 0.2 * kDeg, 1e-12);
+  EXPECT_NEAR(rig.mount_yaw, -0.4 * kDeg, 1e-12);
+  ++i;
+  EXPECT_TRUE(parseRigOption(7, argv, i, rig, noise));
+  EXPECT_NEAR(rig.time_offset, -0.003, 1e-12);
+  ++i;
+  EXPECT_FALSE(parseRigOption(7, argv, i, rig, noise));
+  const char* bad[] = {"x", "--backlash-deg", "0.3deg", "--backlash-deg", "-1", "--joint-offset-deg"};
+  char** b = const_cast<char**>(bad);
+  for (int k : {1, 3, 5}) {
+    int j = k;
+    EXPECT_THROW(parseRigOption(6, b, j, rig, noise), std::invalid_argument) << bad[k];
+  }
 }
 
 TEST(SweepController, SweepsBetweenTheLimits) {

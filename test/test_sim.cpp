@@ -212,6 +212,34 @@ TEST(LidarSim, MixedPixelsAppearOnlyAtDepthJumps) {
   EXPECT_LE(mixed, 4);  // at most both sides of both board ends
 }
 
+TEST(LidarSim, AWideFootprintGivesARunOfBeamsBetweenTheSurfaces) {
+  // A board at 1 m before a wall at 3 m, a footprint of 1 degree (4 steps):
+  // each board end gives a run of several beams in between, as real sensors
+  // do, ranging monotonically from one surface to the other.
+  NoiseParams n = exact();
+  n.footprint = 1.0 * kDeg;
+  const Scene s = sim::loadScene("figure3_board_1m");
+  LidarSimulator sim(s, LidarModel(), n, 3);
+  const auto scan = sim.scan(0, kOrigin);
+  int runs = 0;
+  for (std::size_t i = 1; i + 1 < scan.ranges.size(); ++i) {
+    if (!scan.mixed[i] || scan.mixed[i - 1]) continue;
+    std::size_t j = i;
+    while (j + 1 < scan.ranges.size() && scan.mixed[j + 1]) ++j;
+    ++runs;
+    EXPECT_GE(j - i + 1, 2u) << "run at beam " << i;
+    EXPECT_LE(j - i + 1, 5u) << "run at beam " << i;
+    const float step = scan.ranges[j] - scan.ranges[i];
+    for (std::size_t k = i; k < j; ++k) EXPECT_GE((scan.ranges[k + 1] - scan.ranges[k]) * step, 0.0f) << k;
+    for (std::size_t k = i; k <= j; ++k) {
+      EXPECT_GT(scan.ranges[k], 1.0f);
+      EXPECT_LT(scan.ranges[k], 3.0f);
+    }
+    i = j;
+  }
+  EXPECT_EQ(runs, 2);  // one at each end of the board
+}
+
 TEST(GroundTruth, BoardSceneHasTwoJumpsAndTwoBoundaries) {
   const Scene s = sim::loadScene("figure3_board_2m");
   LidarSimulator sim(s, LidarModel(), exact(), 1);

@@ -100,6 +100,19 @@ double ServoModel::positionAt(double t) {
   return historyAt(t);
 }
 
+double ServoModel::reading(double t) {
+  const double p = positionAt(t);
+  std::lock_guard<std::mutex> l(mutex_);
+  if (reading_sigma_ <= 0.0) return p;
+  return p + reading_sigma_ * std::normal_distribution<double>(0.0, 1.0)(reading_rng_);
+}
+
+void ServoModel::setReadingNoise(double sigma, std::uint64_t seed) {
+  std::lock_guard<std::mutex> l(mutex_);
+  reading_sigma_ = sigma;
+  reading_rng_.seed(seed);
+}
+
 double ServoModel::historyAt(double t) const {
   if (t <= history_.front().first) return history_.front().second;
   // Samples are 1 ms apart: find the pair around t.
@@ -139,6 +152,80 @@ HeadGeometry HeadGeometry::load(const std::string& path) {
   return g;
 }
 
+bool RigErrors::any() const {
+  return tilt_noise != 0.0 || quantize || backlash != 0.0 || time_offset != 0.0 || line_jitter != 0.0 ||
+         joint_offset != 0.0 || mount_roll != 0.0 || mount_yaw != 0.0;
+}
+
+Eigen::Isometry3d RigErrors::mount() const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.rotate(Eigen::AngleAxisd(mount_yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(mount_roll, Eigen::Vector3d::UnitX()));
+  return T;
+}
+
+void setRealistic(RigErrors& rig, NoiseParams& noise) {
+  const double deg = M_PI / 180.0;
+  rig.tilt_noise = 0.5 * 2.0 * M_PI / 4096.0;  // half an encoder step
+  rig.quantize = true;
+  rig.backlash = 0.3 * deg;
+  rig.time_offset = 0.005;
+  rig.line_jitter = 0.001;
+  rig.joint_offset = 0.5 * deg;
+  rig.mount_roll = 0.3 * deg;
+  rig.mount_yaw = 0.3 * deg;
+  noise.footprint = 1.0 * deg;
+}
+
+const char* rigOptionsUsage() {
+  return "  rig errors (the truth's departures from head.yaml; default none):\n"
+         "    --tilt-noise-deg S   joint reading noise (sigma)     --backlash-deg B   gear play (full width)\n"
+         "    --time-offset-ms T   scan stamp minus true time      --line-jitter-ms J per-scan stamp error (sigma)\n"
+         "    --joint-offset-deg O true minus reported tilt       --mount-error-deg R[,Y] laser roll (and yaw) on its link\n"
+         "    --footprint-deg F    beam footprint (mixed pixels over several beams)\n"
+         "    --realistic          a real rig's set (README); options after it change single values\n";
+}
+
+bool parseRigOption(int argc, char** argv, int& i, RigErrors& rig, NoiseParams& noise) {
+  const std::string a = argv[i];
+  const double deg = M_PI / 180.0;
+  if (a == "--realistic") {
+    setRealistic(rig, noise);
+    return true;
+  }
+  static const char* with_value[] = {"--tilt-noise-deg", "--backlash-deg", "--time-offset-ms", "--line-jitter-ms",
+                                     "--joint-offset-deg", "--mount-error-deg", "--footprint-deg"};
+  if (std::find(std::begin(with_value), std::end(with_value), a) == std::end(with_value)) return false;
+  if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+  const std::string v = argv[++i];
+  const auto number = [&](const std::string& text) {
+    std::size_t used = 0;
+    double x = 0.0;
+    try {
+      x = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != text.size() || !std::isfinite(x)) throw std::invalid_argument(a + ": not a number: '" + text + "'");
+    return x;
+  };
+  const auto nonNegative = [&](double x) {
+    if (x < 0.0) throw std::invalid_argument(a + " must not be negative");
+    return x;
+  };
+  if (a == "--tilt-noise-deg") rig.tilt_noise = nonNegative(number(v)) * deg;
+  else if (a == "--backlash-deg") rig.backlash = nonNegative(number(v)) * deg;
+  else if (a == "--time-offset-ms") rig.time_offset = number(v) * 1e-3;
+  else if (a == "--line-jitter-ms") rig.line_jitter = nonNegative(number(v)) * 1e-3;
+  else if (a == "--joint-offset-deg") rig.joint_offset = number(v) * deg;
+  else if (a == "--footprint-deg") noise.footprint = nonNegative(number(v)) * deg;
+  else {  // --mount-error-deg R or R,Y
+    const std::size_t comma = v.find(',');
+    rig.mount_roll = number(v.substr(0, comma)) * deg;
+    rig.mount_yaw = comma == std::string::npos ? rig.mount_roll : number(v.substr(comma + 1)) * deg;
+  }
+  return true;
+}
+
 SweepController::SweepController(ServoModel& servo, const core::TiltProfileParams& params)
     : servo_(servo), profile_(params) {
   servo_.setAccelerationLimit(0.0, params.acceleration);
@@ -157,17 +244,34 @@ bool SweepController::update(double t, core::Sweep* sweep) {
 }
 
 HeadSimulator::HeadSimulator(const Scene& scene, const HeadGeometry& head, ServoModel& servo,
-                             const NoiseParams& noise, std::uint64_t seed, const LidarModel& model)
-    : scene_(scene), head_(head), servo_(servo), lidar_(scene, model, noise, seed) {}
+                             const NoiseParams& noise, std::uint64_t seed, const LidarModel& model, const RigErrors& rig)
+    : scene_(scene), head_(head), servo_(servo), lidar_(scene, model, noise, seed), rig_(rig), mount_(rig.mount()),
+      rng_(seed ^ 0x5eedf00dULL) {
+  if (rig_.tilt_noise > 0.0) servo_.setReadingNoise(rig_.tilt_noise, seed ^ 0x7e57ULL);
+}
 
 void HeadSimulator::scan(double t0, HeadScan& out) {
   const LidarModel& m = lidar_.model();
+  // The true time of beam 0: the stamp less its offset and this line's jitter.
+  double start = t0 - rig_.time_offset;
+  if (rig_.line_jitter > 0.0) start += rig_.line_jitter * std::normal_distribution<double>(0.0, 1.0)(rng_);
   out.tilt.resize(m.beams);
-  for (int i = 0; i < m.beams; ++i) out.tilt[i] = static_cast<float>(servo_.positionAt(t0 + m.beamTime(i)));
+  const double half_play = 0.5 * rig_.backlash;
+  for (int i = 0; i < m.beams; ++i) {
+    const double horn = servo_.positionAt(start + m.beamTime(i));
+    // Gear play: the laser stays where it is until the horn pushes it.
+    if (!load_set_) {
+      load_ = horn;
+      load_set_ = true;
+    }
+    load_ = std::clamp(load_, horn - half_play, horn + half_play);
+    out.tilt[i] = static_cast<float>(load_ + rig_.joint_offset);
+  }
+  const bool mounted_off = rig_.mount_roll != 0.0 || rig_.mount_yaw != 0.0;
   const PoseFunction pose = [&](double t) {
     const int i = static_cast<int>(std::lround((t - t0) / m.timeIncrement()));
-    const double tilt = (i >= 0 && i < m.beams) ? out.tilt[i] : servo_.positionAt(t);
-    return head_.laserPose(tilt);
+    const double tilt = (i >= 0 && i < m.beams) ? out.tilt[i] : servo_.positionAt(t - rig_.time_offset) + rig_.joint_offset;
+    return mounted_off ? Eigen::Isometry3d(head_.laserPose(tilt) * mount_) : head_.laserPose(tilt);
   };
   lidar_.scan(t0, pose, out.scan);
 }

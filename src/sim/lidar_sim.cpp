@@ -41,6 +41,28 @@ LidarSimulator::LidarSimulator(const Scene& scene, const LidarModel& model, cons
                                std::uint64_t seed)
     : scene_(scene), model_(model), noise_(noise), rng_(seed) {}
 
+template <typename Dir>
+double LidarSimulator::footprintRange(const Eigen::Vector3d& o, const Dir& dirAt, double a, double w,
+                                      double cos_grazing) const {
+  // Sub-rays across the footprint with a Gaussian profile (its edges at 2
+  // sigma); each returns power ~ reflectivity * cos(incidence) / range^2
+  // (an extended target filling its share of the footprint) when it is
+  // detectable at all.
+  constexpr int kRays = 11;
+  double sw = 0.0, swr = 0.0;
+  for (int k = 0; k < kRays; ++k) {
+    const double u = -1.0 + 2.0 * k / (kRays - 1);  // -1..1 across the footprint
+    Hit h;
+    if (!scene_.raycast(o, dirAt(a + u * w), model_.max_detect_range, h)) continue;
+    const double refl = scene_.faces[h.face].reflectivity;
+    if (h.t > model_.max_detect_range * refl || h.cos_incidence < cos_grazing) continue;
+    const double weight = std::exp(-2.0 * u * u) * refl * h.cos_incidence / (h.t * h.t);
+    sw += weight;
+    swr += weight * h.t;
+  }
+  return sw > 0.0 ? swr / sw : std::numeric_limits<double>::quiet_NaN();
+}
+
 void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
   const int n = model_.beams;
   const float inf = std::numeric_limits<float>::infinity();
@@ -72,7 +94,19 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
     if (noise_.dropout_probability > 0.0 && uni(rng_) < noise_.dropout_probability) continue;
 
     double r = hit.t;
-    if (noise_.mixed_pixel_probability > 0.0) {
+    if (noise_.footprint > model_.angle_increment) {
+      // A footprint wider than the step: where its edges see other ranges
+      // than its centre, the return is the power-weighted mean over it.
+      const double w = 0.5 * noise_.footprint;
+      Hit h1, h2;
+      const bool b1 = scene_.raycast(o, dirAt(a - w), model_.max_detect_range, h1);
+      const bool b2 = scene_.raycast(o, dirAt(a + w), model_.max_detect_range, h2);
+      if (!b1 || !b2 || std::abs(h1.t - hit.t) > 0.02 || std::abs(h2.t - hit.t) > 0.02) {
+        r = footprintRange(o, dirAt, a, w, cos_grazing);
+        if (!std::isfinite(r)) continue;
+        out.mixed[i] = std::abs(r - hit.t) > 0.03;
+      }
+    } else if (noise_.mixed_pixel_probability > 0.0) {
       // The beam's footprint reaches half a step either side: where it
       // straddles a depth jump the sensor may report a range in between.
       Hit h1, h2;

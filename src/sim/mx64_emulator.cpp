@@ -119,7 +119,7 @@ void Mx64Emulator::setHardwareError(std::uint8_t bits) {
 void Mx64Emulator::refresh(double t) {
   const ServoModel::State s = servo_.state(t);
   const bool v1 = options_.protocol == Protocol::V1;
-  set(table_.present_position, static_cast<std::uint32_t>(dynamixel::radToPosition(s.position)));
+  set(table_.present_position, static_cast<std::uint32_t>(dynamixel::radToPosition(servo_.reading(t))));
   const double rpm_unit = dynamixel::velocityUnitRpm(options_.protocol) * 2.0 * M_PI / 60.0;
   const long vraw = std::lround(s.velocity / rpm_unit);
   if (v1) {

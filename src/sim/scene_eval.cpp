@@ -228,7 +228,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   const HeadGeometry head = HeadGeometry::load(o.head_file.empty() ? configDirectory() + "/head.yaml" : o.head_file);
   ServoModel servo(o.profile.min_angle, 0.0);
   SweepController sweep(servo, o.profile);
-  HeadSimulator head_sim(scene, head, servo, o.noise, o.seed);
+  HeadSimulator head_sim(scene, head, servo, o.noise, o.seed, LidarModel(), o.rig);
   const LidarModel& m = head_sim.model();
   core::SweepAssembler assembler(o.sweep, chainOf(head));
   core::ScanSplitter splitter(o.split);
@@ -245,7 +245,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   for (double t = 0.0; static_cast<int>(out.size()) < o.sweeps && t < 600.0; t += 0.001) {
     sweep.update(t);
     if (t + 1e-9 >= next_joint) {
-      double q = servo.state(t).position;
+      double q = servo.reading(t);
       if (o.quantize_joint) q = dynamixel::positionToRad(dynamixel::radToPosition(q));
       assembler.addJoint(t, q);
       next_joint += joint_period;

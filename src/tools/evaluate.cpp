@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <stdexcept>
 #include <string>
 
 #include "tilt_laser_perception/sim/scene_eval.hpp"
@@ -16,7 +17,8 @@ static void usage() {
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
                "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them\n"
-               "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n");
+               "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n"
+               "%s", sim::rigOptionsUsage());
 }
 
 int main(int argc, char** argv) {
@@ -25,6 +27,12 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
+    try {
+      if (sim::parseRigOption(argc, argv, i, o.rig, o.noise)) continue;
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "evaluate: %s\n", e.what());
+      return 2;
+    }
     if (a == "--scene" && v) o.scene = argv[++i];
     else if (a == "--sweeps" && v) o.sweeps = std::atoi(argv[++i]);
     else if (a == "--seed" && v) o.seed = std::strtoull(argv[++i], nullptr, 10);

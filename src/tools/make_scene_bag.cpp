@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <stdexcept>
 #include <string>
 
 #include <geometry_msgs/TransformStamped.h>
@@ -16,6 +17,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "tilt_laser_perception/ScanTruth.h"
+#include "tilt_laser_perception/dynamixel/mx64.hpp"
 #include "tilt_laser_perception/sim/head.hpp"
 
 using namespace tilt_laser_perception;
@@ -25,7 +27,8 @@ void usage() {
   std::fprintf(stderr,
                "usage: make_scene_bag --scene NAME --out BAG [--duration S] [--seed N] [--min-deg D] [--max-deg D]\n"
                "                      [--speed RAD_PER_S] [--truth] [--head FILE] [--noise datasheet|percent|none]\n"
-               "  defaults: 5 s, seed 1, tilt 10..60 deg at 1 rad/s, no truth\n");
+               "  defaults: 5 s, seed 1, tilt 10..60 deg at 1 rad/s, no truth\n"
+               "%s", sim::rigOptionsUsage());
 }
 
 geometry_msgs::TransformStamped transform(const std::string& parent, const std::string& child, const ros::Time& t,
@@ -52,9 +55,16 @@ int main(int argc, char** argv) {
   unsigned long seed = 1;
   bool with_truth = false;
   sim::NoiseParams noise;
+  sim::RigErrors rig;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
+    try {
+      if (sim::parseRigOption(argc, argv, i, rig, noise)) continue;
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "make_scene_bag: %s\n", e.what());
+      return 2;
+    }
     if (a == "--scene" && v) scene_name = argv[++i];
     else if (a == "--out" && v) out = argv[++i];
     else if (a == "--duration" && v) duration = std::atof(argv[++i]);
@@ -83,7 +93,7 @@ int main(int argc, char** argv) {
     profile.max_angle = max_deg * deg;
     profile.speed = speed;
     sim::SweepController sweep(servo, profile);
-    sim::HeadSimulator head_sim(scene, head, servo, noise, seed);
+    sim::HeadSimulator head_sim(scene, head, servo, noise, seed, sim::LidarModel(), rig);
     const sim::LidarModel& m = head_sim.model();
 
     rosbag::Bag bag(out, rosbag::bagmode::Write);
@@ -110,17 +120,19 @@ int main(int argc, char** argv) {
       sweep.update(t);
       if (t + 1e-9 >= next_js) {
         const sim::ServoModel::State s = servo.state(t);
+        double q = servo.reading(t);  // what the encoder reports (the rig's noise in it)
+        if (rig.quantize) q = dynamixel::positionToRad(dynamixel::radToPosition(q));
         sensor_msgs::JointState js;
         js.header.seq = states++;
         js.header.stamp = stamp(t);
         js.name = {"head_tilt_joint"};
-        js.position = {s.position};
+        js.position = {q};
         js.velocity = {s.velocity};
         js.effort = {0.0};
         bag.write("/joint_states", js.header.stamp, js);
         tf2_msgs::TFMessage tf;
         Eigen::Isometry3d R = Eigen::Isometry3d::Identity();
-        R.rotate(Eigen::AngleAxisd(s.position + head.tilt_offset, Eigen::Vector3d::UnitY()));
+        R.rotate(Eigen::AngleAxisd(q + head.tilt_offset, Eigen::Vector3d::UnitY()));
         tf.transforms.push_back(transform("head_tilt_base", "head_tilt_link", stamp(t), R));
         bag.write("/tf", stamp(t), tf);
         next_js += js_period;

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <mutex>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -37,7 +38,8 @@ void usage() {
       "Fault SPEC is NAME@T[:ARG], T seconds after start:\n"
       "  laser: drop@T  silent@T[:DURATION]  corrupt@T[:SCANS]  truncate@T[:SCANS]  delay@T:MS (0 ends it)  reboot@T\n"
       "  servo: servo-noreply@T[:DURATION]  servo-badcrc@T[:N]  servo-garbage@T[:N]\n"
-      "         servo-overload@T  servo-overheat@T  servo-voltage@T  servo-clear@T  servo-vanish@T[:DURATION]\n");
+      "         servo-overload@T  servo-overheat@T  servo-voltage@T  servo-clear@T  servo-vanish@T[:DURATION]\n"
+      "%s", sim::rigOptionsUsage());
 }
 
 struct Fault {
@@ -71,6 +73,7 @@ int main(int argc, char** argv) {
   double initial_tilt_deg = 30.0, duration = 0.0;
   sim::UtmOptions utm_opt;
   sim::NoiseParams noise;
+  sim::RigErrors rig;
   std::vector<Fault> faults;
   // roslaunch appends __name:= and __log:= arguments: leave them out.
   std::vector<char*> args{argv[0]};
@@ -82,6 +85,12 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
     if (a == "--truth" && (!v || std::strncmp(argv[i + 1], "--", 2) == 0)) continue;  // an empty --truth: none
+    try {
+      if (sim::parseRigOption(argc, argv, i, rig, noise)) continue;
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "tilt_laser_sim: %s\n", e.what());
+      return 2;
+    }
     if (a == "--scene" && v) scene_name = argv[++i];
     else if (a == "--protocol" && v) protocol = std::atoi(argv[++i]);
     else if (a == "--seed" && v) seed = std::strtoul(argv[++i], nullptr, 10);
@@ -116,7 +125,7 @@ int main(int argc, char** argv) {
         head_path.empty() ? sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml") : sim::HeadGeometry::load(head_path);
     const double start = sim::hostNow();
     sim::ServoModel servo(initial_tilt_deg * M_PI / 180.0, start);
-    sim::HeadSimulator head_sim(scene, head, servo, noise, seed);
+    sim::HeadSimulator head_sim(scene, head, servo, noise, seed, sim::LidarModel(), rig);
 
     std::ofstream truth;
     if (!truth_path.empty()) {

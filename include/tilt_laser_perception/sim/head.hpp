@@ -9,6 +9,7 @@
 
 #include <deque>
 #include <mutex>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,11 @@ class ServoModel {
   State state(double t);
   /// Position at time t, interpolated from the history (the last 5 s) or advanced to t.
   double positionAt(double t);
+  /// What the servo's encoder reports at time t: the position plus the
+  /// reading noise set by setReadingNoise (none by default).
+  double reading(double t);
+  /// Gaussian noise of every reading [rad, standard deviation]; deterministic for a seed.
+  void setReadingNoise(double sigma, std::uint64_t seed);
   double velocityLimit() const;
 
  private:
@@ -59,7 +65,45 @@ class ServoModel {
   double t_, pos_, vel_ = 0.0, goal_, vmax_ = kMaxVelocity, amax_ = 200.0;
   bool torque_ = true;
   std::deque<std::pair<double, double>> history_;  // (t, position), 1 ms apart
+  double reading_sigma_ = 0.0;
+  std::mt19937_64 reading_rng_;
 };
+
+/// The errors of a real tilting rig: what stands between the joint angle the
+/// servo reports, the stamp the laser's driver gives a scan, and where the
+/// beams really went. The head's believed geometry (HeadGeometry, head.yaml)
+/// stays as it is; these are the truth's departures from it. All zero: the
+/// ideal rig of the package's earlier figures. See rigErrorsRealistic() for
+/// a set typical of a real head and where its values come from.
+struct RigErrors {
+  double tilt_noise = 0.0;    ///< encoder noise of every joint reading [rad, sigma]
+  bool quantize = false;      ///< joint readings in the MX-64's 4096 steps a turn (evaluate always quantizes)
+  double backlash = 0.0;      ///< gear play [rad, full width]: the laser follows the horn only when pushed, lagging by up to half of it
+  double time_offset = 0.0;   ///< a scan's stamp minus the true time of its beam 0 [s] (positive: stamped late)
+  double line_jitter = 0.0;   ///< per-scan error of that stamp [s, sigma] (USB and host timing)
+  double joint_offset = 0.0;  ///< true tilt minus the reported one [rad] (a horn mounted a tooth off, a zero not set)
+  double mount_roll = 0.0;    ///< laser rotated about its own x axis on the tilt link [rad]
+  double mount_yaw = 0.0;     ///< laser rotated about its own z axis on the tilt link [rad]
+
+  bool any() const;
+  /// Rotation of the laser's mount error (yaw about z, then roll about x).
+  Eigen::Isometry3d mount() const;
+};
+
+/// The realistic set (`--realistic`): encoder noise 0.5 step (0.044 deg) and
+/// quantization, backlash 0.3 deg, time offset 5 ms, per-line jitter 1 ms,
+/// joint offset 0.5 deg, mount roll 0.3 deg and yaw 0.3 deg; for the laser a
+/// footprint of 1 deg (NoiseParams::footprint). README says where each comes from.
+void setRealistic(RigErrors& rig, NoiseParams& noise);
+
+/// Parses one rig option at argv[i] (advancing i past its value): --tilt-noise-deg,
+/// --backlash-deg, --time-offset-ms, --line-jitter-ms, --joint-offset-deg,
+/// --mount-error-deg DEG (roll and yaw) or ROLL,YAW, --footprint-deg, --realistic
+/// (the set above; options after it change single values). Returns false when
+/// argv[i] is not one of them; throws std::invalid_argument on a bad value.
+bool parseRigOption(int argc, char** argv, int& i, RigErrors& rig, NoiseParams& noise);
+/// The usage lines of those options.
+const char* rigOptionsUsage();
 
 /// How the laser sits on the head. Frames: base (the robot's base_footprint),
 /// the tilt axis at `axis_origin` (y axis = tilt axis; a positive tilt pitches
@@ -91,24 +135,32 @@ class SweepController {
 /// A scan of the head simulator: the simulated scan plus the joint angle at every beam.
 struct HeadScan {
   SimScan scan;
-  std::vector<float> tilt;  ///< joint angle at each beam's own time [rad]
+  std::vector<float> tilt;  ///< true tilt of the laser at each beam's own time [rad] (the rig's errors in it)
 };
 
 /// Scans of a scene from the tilting head. Not thread-safe by itself.
 class HeadSimulator {
  public:
   HeadSimulator(const Scene& scene, const HeadGeometry& head, ServoModel& servo, const NoiseParams& noise,
-                std::uint64_t seed, const LidarModel& model = LidarModel());
-  /// Simulates the scan whose beam 0 is at time t0 (the servo must have been driven up to t0 + scan time).
+                std::uint64_t seed, const LidarModel& model = LidarModel(), const RigErrors& rig = RigErrors());
+  /// Simulates the scan stamped t0 (its beam 0 at t0 - rig.time_offset, plus
+  /// the line's jitter; the servo must have been driven up to t0 + scan time).
+  /// Scans must come in time order (the gear play has a state).
   void scan(double t0, HeadScan& out);
   const LidarModel& model() const { return lidar_.model(); }
   const HeadGeometry& head() const { return head_; }
+  const RigErrors& rig() const { return rig_; }
 
  private:
   const Scene& scene_;
   HeadGeometry head_;
   ServoModel& servo_;
   LidarSimulator lidar_;
+  RigErrors rig_;
+  Eigen::Isometry3d mount_;
+  std::mt19937_64 rng_;
+  bool load_set_ = false;
+  double load_ = 0.0;  // the laser's side of the gear play [rad]
 };
 
 /// The true height map of a scene: for each cell centre, the height of the

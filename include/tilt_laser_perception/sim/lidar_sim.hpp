@@ -51,7 +51,13 @@ struct NoiseParams {
   NoiseMode mode = NoiseMode::Datasheet;
   double percent = 1.0;                  ///< bound for NoiseMode::Percent [%]
   double grazing_limit_deg = 85.0;       ///< no return beyond this incidence angle [deg]
-  double mixed_pixel_probability = 0.5;  ///< chance that a beam straddling a depth jump mixes both ranges
+  double mixed_pixel_probability = 0.5;  ///< chance that a beam straddling a depth jump mixes both ranges (footprint 0)
+  /// Width of the beam's footprint [rad]. 0: the footprint is one step wide
+  /// and a beam straddling a jump takes a range in between with the chance
+  /// above (one beam at a depth edge). Wider: the reported range is the
+  /// return-power weighted mean over the footprint, so a depth edge gives a
+  /// run of beams between the near and the far surface, as real sensors do.
+  double footprint = 0.0;
   double dropout_probability = 0.0;      ///< chance of a random no-return
 
   /// Standard deviation of the range noise at range r [m].
@@ -101,6 +107,9 @@ class LidarSimulator {
   const LidarModel& model() const { return model_; }
 
  private:
+  /// The power-weighted mean range over a footprint of half-width w about angle a; NaN: no return.
+  template <typename Dir>
+  double footprintRange(const Eigen::Vector3d& o, const Dir& dirAt, double a, double w, double cos_grazing) const;
   const Scene& scene_;
   LidarModel model_;
   NoiseParams noise_;

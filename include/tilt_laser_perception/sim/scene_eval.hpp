@@ -31,6 +31,7 @@ struct SceneEvalOptions {
   double overlap = 0.8;                 ///< Hoover's tolerance
   double heightmap_radius = 3.0;        ///< cells farther than this are not judged [m]
   NoiseParams noise;
+  RigErrors rig;                        ///< the rig's errors (none by default)
   core::SplitParams split;
   core::SweepParams sweep;
   core::HeightMapParams heightmap;
