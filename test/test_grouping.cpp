@@ -920,8 +920,8 @@ TEST(HeightMap, FillsPolygonsAndMarksObstacles) {
 TEST(HeightMap, AMixedPixelIsNoObstacle) {
   // One scan line from (0, 0, 1.3): a box top (z 0.3, in no plane) up to its
   // edge E, then a mixed pixel V halfway along E's ray to the floor behind,
-  // then the floor from F on. V stands 0.15 m above the floor, but both its
-  // neighbours lie along its ray: a veil, not an obstacle. E is the box.
+  // then the floor from F on. V stands 0.15 m above the floor, but the split
+  // marked it a veil point: not an obstacle. E is the box.
   SweepResult s;
   Plane floor;
   floor.fit.normal = Eigen::Vector3d::UnitZ();
@@ -937,6 +937,7 @@ TEST(HeightMap, AMixedPixelIsNoObstacle) {
   line.points.push_back(edge);
   line.points.push_back(veil);
   for (int k = 0; k < 5; ++k) line.points.push_back(far + Eigen::Vector3f(0.0f, 0.013f * k, 0.0f));
+  line.edges = {{5, EdgeKind::Jump}, {6, EdgeKind::Veil}, {7, EdgeKind::Occluded}};
   s.lines.push_back(line);
   HeightMapParams p;
   p.origin_x = 0.0;
@@ -952,7 +953,7 @@ TEST(HeightMap, AMixedPixelIsNoObstacle) {
   EXPECT_NEAR(g.heights[cell(g, veil)], 0.0, 1e-6);
   EXPECT_EQ(g.classes[cell(g, edge)], CellClass::Obstacle);
   EXPECT_NEAR(g.heights[cell(g, edge)], 0.3, 1e-6);
-  p.veil_angle_deg = 0.0;  // no veil test: V is an obstacle
+  s.lines[0].edges = {{5, EdgeKind::Jump}, {7, EdgeKind::Occluded}};  // not marked: V is an obstacle
   buildHeightMap(s, p, g);
   EXPECT_EQ(g.classes[cell(g, veil)], CellClass::Obstacle);
   EXPECT_NEAR(g.heights[cell(g, veil)], veil.z(), 1e-6);

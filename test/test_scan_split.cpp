@@ -203,6 +203,85 @@ TEST(Split, MixedPixelIsLeftOutAndTheBoardEndIsAJump) {
   EXPECT_TRUE(found);
 }
 
+TEST(Split, AVeilOfMixedPixelsMakesNoSegmentAndIsMarked) {
+  // A door post at 2.6 m before a room wall at 3.4 m; past the post's end
+  // the ranges ramp over five beams as a real UTM-30LX gives them
+  // (3.34 -> 2.98 -> 2.82 -> 2.67 -> 2.62 m seen at a door, mirrored here:
+  // near to far), each step below the jump threshold.
+  SyntheticScan s({{{2.6, -0.6}, {2.6, 0.2}}, {{3.4, -3}, {3.4, 3}}});
+  int last_post = -1;
+  for (int i = 0; i < s.n; ++i)
+    if (std::isfinite(s.ranges[i]) && s.ranges[i] < 3.0f) last_post = i;
+  ASSERT_GT(last_post, 0);
+  const float ramp[] = {2.67f, 2.82f, 2.98f, 3.14f, 3.28f};
+  for (int k = 0; k < 5; ++k) s.ranges[last_post + 1 + k] = ramp[k];
+  SplitParams no_veil;
+  no_veil.veil_angle_deg = 0.0;
+  ScanSplitter plain(no_veil), splitter;
+  SplitResult r;
+  // Without the veil test the ramp joins a segment pointing at the sensor.
+  ASSERT_EQ(plain.split(s.view(), r), ScanError::None);
+  int toward = 0;
+  for (const auto& seg : r.segments) toward += segmentBeamAngle(seg) < 15.0 * kDeg;
+  EXPECT_GE(toward, 1);
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  EXPECT_EQ(r.veil_points, 5);
+  for (const auto& seg : r.segments) {
+    EXPECT_GT(segmentBeamAngle(seg), 15.0 * kDeg) << seg.first << "-" << seg.last;
+    EXPECT_TRUE(seg.last <= last_post || seg.first > last_post + 5) << seg.first << "-" << seg.last;
+  }
+  // The post's end is a jump, the wall behind the veil occluded, the five marked.
+  std::vector<int> veil;
+  bool jump = false, occluded = false;
+  for (std::size_t k = 0; k < r.edges.size(); ++k) {
+    const auto& e = r.edges[k];
+    if (k > 0) EXPECT_LE(r.edges[k - 1].index, e.index);  // beam order
+    if (e.kind == EdgeKind::Veil) veil.push_back(e.index);
+    jump = jump || (e.kind == EdgeKind::Jump && e.index == last_post);
+    occluded = occluded || (e.kind == EdgeKind::Occluded && e.index == last_post + 6);
+  }
+  EXPECT_EQ(veil, (std::vector<int>{last_post + 1, last_post + 2, last_post + 3, last_post + 4, last_post + 5}));
+  EXPECT_TRUE(jump);
+  EXPECT_TRUE(occluded);
+}
+
+TEST(Split, AFloorAtGrazingIncidenceIsNoVeil) {
+  // A wall seen 8 degrees off its surface over 60 beams: every beam's
+  // neighbours lie along its ray, but the run is far longer than a
+  // footprint: a surface, kept as a segment.
+  SyntheticScan s({{{1.0, -0.2}, {12.0, 1.35}}});
+  ScanSplitter splitter;
+  SplitResult r;
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  EXPECT_EQ(r.veil_points, 0);
+  int hits = 0, points = 0;
+  for (float x : s.ranges) hits += std::isfinite(x);
+  for (const auto& seg : r.segments) points += seg.count;
+  EXPECT_GE(points, 0.8 * hits) << hits;
+}
+
+TEST(Split, NoSegmentsOwnPointsLieBeyondItsEnds) {
+  // Returns that go out and come back along nearly one line: a wall at 2 m
+  // whose middle beams report ranges that step out along a wall behind and
+  // back (a spike of five beams on each side of a gap). Whatever the split
+  // makes of it, each segment's points lie between its ends.
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (int trial = 0; trial < 50; ++trial) {
+    SyntheticScan s({{{2, -1.5}, {2, 1.5}}});
+    for (auto& r : s.ranges)
+      if (std::isfinite(r)) r += static_cast<float>(noise(rng));
+    const int mid = s.beamAt(trial - 25.0);
+    const float spike[] = {2.05f, 2.11f, 2.18f, 2.24f, 2.18f, 2.11f, 2.05f};
+    for (int k = 0; k < 7; ++k) s.ranges[mid + k] = spike[k] + static_cast<float>(noise(rng));
+    ScanSplitter splitter;
+    SplitResult r;
+    ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+    for (const auto& seg : r.segments)
+      EXPECT_LE(segmentOverhang(s.view(), seg), 0.01) << trial << ": " << seg.first << "-" << seg.last << " mid " << mid;
+  }
+}
+
 TEST(Split, NoisyFarWallAdaptiveKeepsItWholeFixedSplitsIt) {
   SyntheticScan s({{{15, -7}, {15, 7}}});
   std::mt19937_64 rng(42);

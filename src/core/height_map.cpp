@@ -142,24 +142,16 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     out.classes[c] = CellClass::Obstacle;
     out.plane_ids[c] = -1;
   };
-  // Mixed pixels: seen from both neighbours along the ray.
-  const float cos_veil = static_cast<float>(std::cos(p.veil_angle_deg * M_PI / 180.0));
-  const auto alongRay = [&](const Eigen::Vector3f& ray, const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
-    const Eigen::Vector3f d = b - a;
-    const float n = d.norm();
-    return std::isfinite(n) && n > 0.0f && std::abs(ray.dot(d)) > cos_veil * n;
-  };
-  const auto veil = [&](const std::vector<Eigen::Vector3f>& pts, int i, const Eigen::Vector3f& origin) {
-    if (p.veil_angle_deg <= 0.0 || i == 0 || i + 1 >= static_cast<int>(pts.size())) return false;
-    const Eigen::Vector3f ray = (pts[i] - origin).normalized();
-    return alongRay(ray, pts[i], pts[i - 1]) && alongRay(ray, pts[i], pts[i + 1]);
-  };
   std::size_t si = 0;
   for (std::size_t li = 0; li < sweep.lines.size(); ++li) {
     const std::vector<Eigen::Vector3f>& pts = sweep.lines[li].points;
-    const Eigen::Vector3f& origin = sweep.lines[li].origin;
-    const auto markLoose = [&](int i) {  // a point of no plane
-      if (inMap(pts[i]) && !veil(pts, i, origin)) mark(pts[i], nullptr);
+    // Mixed pixels (the split's veil marks, in beam order) mark no obstacle.
+    const auto& edges = sweep.lines[li].edges;
+    std::size_t ei = 0;
+    const auto markLoose = [&](int i) {  // a point of no plane; called in beam order
+      while (ei < edges.size() && edges[ei].first < i) ++ei;
+      if (ei < edges.size() && edges[ei].first == i && edges[ei].second == EdgeKind::Veil) return;
+      if (inMap(pts[i])) mark(pts[i], nullptr);
     };
     int cursor = 0;
     for (; si < sweep.segments.size() && sweep.segments[si].line == static_cast<int>(li); ++si) {

@@ -30,6 +30,7 @@ const char* edgeKindName(EdgeKind k) {
     case EdgeKind::Occluded: return "occluded";
     case EdgeKind::Crease: return "crease";
     case EdgeKind::Boundary: return "boundary";
+    case EdgeKind::Veil: return "veil";
   }
   return "unknown";
 }
@@ -66,6 +67,10 @@ std::string SplitParams::validate() const {
     s << "jump_min and jump_ratio are both 0: every pair of returns would be a jump";
   else if (min_points < 2)
     s << "min_points must be >= 2, got " << min_points;
+  else if (!(std::isfinite(veil_angle_deg) && veil_angle_deg >= 0.0 && veil_angle_deg < 45.0))
+    s << "veil_angle_deg must be in [0, 45), got " << veil_angle_deg;
+  else if (veil_max_beams < 1)
+    s << "veil_max_beams must be >= 1, got " << veil_max_beams;
   return s.str();
 }
 
@@ -141,11 +146,14 @@ ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
     prefix_[i + 1] = sum;
   }
   out.valid_points = static_cast<int>(sum.n);
+  out.veil_points = 0;
+  if (params_.veil_angle_deg > 0.0) markVeils(n, out);
 
-  // Runs of valid returns without depth jumps.
+  // Runs of valid returns without depth jumps (a veil ends a run as a jump does).
   runs_.clear();
   int start = -1;
   EdgeKind start_kind = EdgeKind::Boundary;
+  EdgeKind after_veil = EdgeKind::Boundary;  // the kind the run after a veil starts with
   for (int i = 0; i <= n; ++i) {
     const bool ok = i < n && valid_[i];
     if (start >= 0) {
@@ -157,6 +165,14 @@ ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
         const bool prev_near = r_[i - 1] < r_[i];
         end_kind = prev_near ? EdgeKind::Jump : EdgeKind::Occluded;
         next_start = prev_near ? EdgeKind::Occluded : EdgeKind::Jump;
+      } else if (!ok && i < n && r_[i] > 0.0) {  // a veil: a depth jump spread over its beams
+        int k = i;
+        while (k < n && !valid_[k] && r_[k] > 0.0) ++k;
+        if (k < n && valid_[k]) {
+          const bool prev_near = r_[i - 1] < r_[k];
+          end_kind = prev_near ? EdgeKind::Jump : EdgeKind::Occluded;
+          after_veil = prev_near ? EdgeKind::Occluded : EdgeKind::Jump;
+        }
       }
       if (ends) {
         runs_.push_back(Run{start, i - 1, start_kind, end_kind});
@@ -165,12 +181,49 @@ ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
       }
     } else if (ok) {
       start = i;
-      start_kind = EdgeKind::Boundary;
+      start_kind = i > 0 && !valid_[i - 1] && r_[i - 1] > 0.0 ? after_veil : EdgeKind::Boundary;
+      after_veil = EdgeKind::Boundary;
     }
   }
   for (const Run& run : runs_)
     if (run.last - run.first + 1 >= params_.min_points) splitRun(run, out);
+  if (out.veil_points > 0)  // veil marks were added first: back into beam order
+    std::stable_sort(out.edges.begin(), out.edges.end(),
+                     [](const EdgePoint& a, const EdgePoint& b) { return a.index < b.index; });
   return ScanError::None;
+}
+
+void ScanSplitter::markVeils(int n, SplitResult& out) {
+  // Beam i is a veil point when the steps to both neighbours run along its
+  // ray, one outwards and one inwards: |dr| > cot(angle) * lateral step.
+  const double cot = 1.0 / std::tan(params_.veil_angle_deg * M_PI / 180.0);
+  const auto along = [&](int i, int j) {  // the step from beam i to its neighbour j lies along i's ray
+    const double dr = r_[j] - r_[i];
+    const double lateral = std::abs(x_[j] * sin_[i] - y_[j] * cos_[i]);  // j's distance from i's ray
+    return std::abs(dr) > cot * lateral;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  int i = 1;
+  while (i + 1 < n) {
+    const auto veil = [&](int k) {
+      return k > 0 && k + 1 < n && valid_[k - 1] && valid_[k] && valid_[k + 1] &&
+             (r_[k - 1] - r_[k]) * (r_[k + 1] - r_[k]) < 0.0 && along(k, k - 1) && along(k, k + 1);
+    };
+    if (!veil(i)) {
+      ++i;
+      continue;
+    }
+    int j = i;
+    while (veil(j + 1)) ++j;
+    if (j - i + 1 <= params_.veil_max_beams) {
+      for (int k = i; k <= j; ++k) {
+        out.edges.push_back(EdgePoint{k, EdgeKind::Veil, nan, Eigen::Vector2d(x_[k], y_[k])});
+        ++out.veil_points;
+      }
+      for (int k = i; k <= j; ++k) valid_[k] = 0;  // after the run's test: it looks at its neighbours
+    }
+    i = j + 1;
+  }
 }
 
 void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
@@ -212,7 +265,7 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
   if (params_.merge) {
     std::size_t w = 0;
     for (std::size_t i = 1; i < pieces_.size(); ++i) {
-      if (withinTolerance(pieces_[w].first, pieces_[i].second)) pieces_[w].second = pieces_[i].second;
+      if (mergeable(pieces_[w].first, pieces_[w].second, pieces_[i].second)) pieces_[w].second = pieces_[i].second;
       else pieces_[++w] = pieces_[i];
     }
     pieces_.resize(w + 1);
@@ -261,6 +314,26 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
   out.edges.push_back(EdgePoint{tail.last, run.end_kind, nan, tail.end});
 }
 
+double segmentOverhang(const ScanView& scan, const Segment& seg) {
+  const double length = (seg.end - seg.start).norm();
+  double over = 0.0;
+  for (int i = seg.first; i <= seg.last; ++i) {
+    const double r = scan.ranges[i];
+    if (!(std::isfinite(r) && r >= scan.range_min && r <= scan.range_max)) continue;
+    const double a = scan.angle_min + i * scan.angle_increment;
+    const double u = seg.direction.dot(Eigen::Vector2d(r * std::cos(a), r * std::sin(a)) - seg.start);
+    over = std::max({over, -u, u - length});
+  }
+  return over;
+}
+
+double segmentBeamAngle(const Segment& seg) {
+  const Eigen::Vector2d mid = 0.5 * (seg.start + seg.end);
+  const double n = mid.norm();
+  if (!(n > 0.0)) return 0.0;
+  return std::acos(std::min(1.0, std::abs(seg.direction.dot(mid / n))));
+}
+
 Moments2 ScanSplitter::rangeMoments(int first, int last) const {
   const Moments2& a = prefix_[first];
   const Moments2& b = prefix_[last + 1];
@@ -280,6 +353,21 @@ bool ScanSplitter::withinTolerance(int first, int last) const {
     const double d = std::abs(normal.dot(Eigen::Vector2d(x_[i], y_[i]) - fit.centroid));
     if (d > params_.threshold(r_[i])) return false;
   }
+  return true;
+}
+
+bool ScanSplitter::mergeable(int first, int split, int last) const {
+  if (!withinTolerance(first, last)) return false;
+  // A scan line crosses a surface in beam order: the second piece must not
+  // fold back over the first along the union's line (returns that go out
+  // and come back along nearly one line fit it as well as a surface does).
+  const LineFit fit = fitLine(rangeMoments(first, last));
+  Eigen::Vector2d d = fit.direction;
+  if (d.dot(Eigen::Vector2d(x_[last] - x_[first], y_[last] - y_[first])) < 0.0) d = -d;
+  double reach = -std::numeric_limits<double>::infinity();
+  for (int i = first; i <= split; ++i) reach = std::max(reach, d.dot(Eigen::Vector2d(x_[i], y_[i])));
+  for (int i = split + 1; i <= last; ++i)
+    if (reach - d.dot(Eigen::Vector2d(x_[i], y_[i])) > params_.threshold(r_[i])) return false;
   return true;
 }
 
@@ -308,8 +396,16 @@ void ScanSplitter::fitSegment(int first, int last, Segment& seg) const {
   Eigen::Vector2d d = fit.direction;
   if (d.dot(p1 - p0) < 0.0) d = -d;
   seg.direction = d;
-  seg.start = fit.centroid + d * d.dot(p0 - fit.centroid);
-  seg.end = fit.centroid + d * d.dot(p1 - fit.centroid);
+  // The ends span every point of the segment (noise along a steep segment
+  // may put a point before the first or past the last).
+  double lo = d.dot(p0 - fit.centroid), hi = d.dot(p1 - fit.centroid);
+  for (int i = first + 1; i < last; ++i) {
+    const double u = d.dot(Eigen::Vector2d(x_[i], y_[i]) - fit.centroid);
+    lo = std::min(lo, u);
+    hi = std::max(hi, u);
+  }
+  seg.start = fit.centroid + d * lo;
+  seg.end = fit.centroid + d * hi;
   seg.rms = fit.rms;
 }
 

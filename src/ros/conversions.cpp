@@ -121,6 +121,7 @@ void segmentMarkers(const ScanSegments& seg, visualization_msgs::MarkerArray& ma
       case ScanSegments::EDGE_JUMP: edges.colors.push_back(color(0.9f, 0.1f, 0.1f)); break;
       case ScanSegments::EDGE_OCCLUDED: edges.colors.push_back(color(1.0f, 0.55f, 0.0f)); break;
       case ScanSegments::EDGE_CREASE: edges.colors.push_back(color(0.2f, 0.3f, 1.0f)); break;
+      case ScanSegments::EDGE_VEIL: edges.colors.push_back(color(0.6f, 0.6f, 0.6f)); break;
       default: edges.colors.push_back(color(0.1f, 0.8f, 0.2f)); break;
     }
   }

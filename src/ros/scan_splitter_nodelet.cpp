@@ -74,6 +74,8 @@ void ScanSplitterNodelet::reconfigure(ScanSplitterConfig& config, uint32_t) {
   p.jump_ratio = config.jump_ratio;
   p.min_points = config.min_points;
   p.merge = config.merge;
+  p.veil_angle_deg = config.veil_angle_deg;
+  p.veil_max_beams = config.veil_max_beams;
   const std::string problem = p.validate();
   std::lock_guard<std::mutex> lock(mutex_);
   if (!problem.empty()) {
@@ -86,13 +88,16 @@ void ScanSplitterNodelet::reconfigure(ScanSplitterConfig& config, uint32_t) {
     config.jump_ratio = old.jump_ratio;
     config.min_points = old.min_points;
     config.merge = old.merge;
+    config.veil_angle_deg = old.veil_angle_deg;
+    config.veil_max_beams = old.veil_max_beams;
     return;
   }
   if (p.mode == core::SplitMode::Fixed && config.mode != "fixed") config.mode = "adaptive";
   splitter_.setParams(p);
-  NODELET_INFO("split: mode %s, zeta %.4f, d_min %.3f m, jump %.3f m + %.3f*R, min_points %d, merge %s",
+  NODELET_INFO("split: mode %s, zeta %.4f, d_min %.3f m, jump %.3f m + %.3f*R, min_points %d, merge %s, "
+               "veil %.1f deg up to %d beams",
                p.mode == core::SplitMode::Fixed ? "fixed" : "adaptive", p.zeta, p.d_min, p.jump_min, p.jump_ratio,
-               p.min_points, p.merge ? "on" : "off");
+               p.min_points, p.merge ? "on" : "off", p.veil_angle_deg, p.veil_max_beams);
 }
 
 void ScanSplitterNodelet::scanCallback(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {

@@ -55,7 +55,6 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("map_max_slope_deg", map_params_.max_slope_deg, map_params_.max_slope_deg);
   pnh.param("map_max_step_height", map_params_.max_step_height, map_params_.max_step_height);
   pnh.param("map_obstacle_min_height", map_params_.obstacle_min_height, map_params_.obstacle_min_height);
-  pnh.param("map_veil_angle_deg", map_params_.veil_angle_deg, map_params_.veil_angle_deg);
   int max_ranges = static_cast<int>(sweep_params_.scan_limits.max_ranges);
   pnh.param("max_ranges", max_ranges, max_ranges);
   pnh.param("max_scan_duration", sweep_params_.scan_limits.max_duration, sweep_params_.scan_limits.max_duration);
@@ -244,7 +243,7 @@ void SweepGrouperNodelet::onSegmentsIn(const ScanSegmentsConstPtr& segs) {
       return;
     }
     for (const std::uint8_t k : segs->edge_kinds)
-      if (k < 1 || k > 4) {
+      if (k < 1 || k > 5) {
         health_.refuse("scan_segments: unknown edge kind", std::to_string(k));
         return;
       }

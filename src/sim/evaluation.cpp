@@ -7,16 +7,17 @@ namespace sim {
 
 EdgeScore scoreEdges(const std::vector<core::EdgePoint>& edges, const std::vector<TrueEdge>& truth, int tolerance) {
   EdgeScore s;
-  s.edge_points = static_cast<int>(edges.size());
   s.true_edges = static_cast<int>(truth.size());
   for (const auto& e : edges) {
+    if (e.kind == core::EdgeKind::Veil) continue;  // a mark on no surface, not an edge of one
+    ++s.edge_points;
     bool near = false;
     for (const auto& t : truth) near = near || std::abs(e.index - t.index) <= tolerance;
     s.spurious += !near;
   }
   for (const auto& t : truth) {
     bool hit = false;
-    for (const auto& e : edges) hit = hit || std::abs(e.index - t.index) <= tolerance;
+    for (const auto& e : edges) hit = hit || (e.kind != core::EdgeKind::Veil && std::abs(e.index - t.index) <= tolerance);
     s.found += hit;
   }
   return s;

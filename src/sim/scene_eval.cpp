@@ -31,6 +31,8 @@ struct LineTruth {
   std::vector<float> ranges;
   std::vector<TrueEdge> edges;
   std::vector<core::EdgePoint> found;
+  int veil_segments = 0;  // segments most of whose points are mixed pixels
+  int overhanging = 0;    // segments with own points more than 1 cm beyond their ends
 };
 
 SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const core::SweepResult& sw,
@@ -61,6 +63,8 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
     const auto it = truth.find(sw.lines[li].stamp);
     if (it == truth.end()) continue;
     const LineTruth& t = it->second;
+    e.veil_segments += t.veil_segments;
+    e.overhanging_segments += t.overhanging;
     const EdgeScore es = scoreEdges(t.found, t.edges);
     edges_found += es.edge_points;
     edges_spurious += es.spurious;
@@ -266,6 +270,12 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
       for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
       for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
       LineTruth lt{hs.scan.face, hs.scan.ranges, hs.scan.edges, split.edges};
+      for (const auto& s : split.segments) {
+        int mixed = 0;
+        for (int i = s.first; i <= s.last; ++i) mixed += hs.scan.mixed[i];
+        lt.veil_segments += 2 * mixed > s.count;
+        lt.overhanging += core::segmentOverhang(hs.scan.view(), s) > 0.01;
+      }
       truth[next_scan] = std::move(lt);
       split_time[next_scan] = st;
       assembler.addLine(std::move(in), t);
@@ -304,15 +314,15 @@ void dumpSweep(const core::SweepResult& sw, const core::HeightMapGrid& grid, con
 
 std::string evalCsvHeader() {
   return "sweep,lines,planes,true_faces,correct,over,under,missed,noise,normal_err_deg,offset_err_m,edge_precision,"
-         "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms";
+         "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
   char buf[512];
-  std::snprintf(buf, sizeof(buf), "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f", sweep,
+  std::snprintf(buf, sizeof(buf), "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d", sweep,
                 e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise, e.normal_err_deg,
                 e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m, e.heightmap_coverage, e.split_ms,
-                e.group_ms, e.latency_ms);
+                e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments);
   return buf;
 }
 
@@ -320,7 +330,10 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
   SweepEval s;
   const double n = ev.empty() ? 1.0 : static_cast<double>(ev.size());
   double correct = 0, over = 0, under = 0, missed = 0, noise = 0;
+  int veil = 0, overhanging = 0;
   for (const SweepEval& e : ev) {
+    veil += e.veil_segments;
+    overhanging += e.overhanging_segments;
     correct += e.correct;
     over += e.over;
     under += e.under;
@@ -340,10 +353,10 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
   std::snprintf(buf, sizeof(buf),
                 "correct=%.2f over=%.2f under=%.2f missed=%.2f noise=%.2f normal_err_deg=%.3f offset_err_m=%.4f "
                 "edge_precision=%.3f edge_recall=%.3f heightmap_rmse_m=%.4f heightmap_coverage=%.3f split_ms=%.2f "
-                "group_ms=%.2f latency_ms=%.3f",
+                "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
-                s.latency_ms);
+                s.latency_ms, veil, overhanging);
   return buf;
 }
 

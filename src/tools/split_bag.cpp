@@ -41,11 +41,12 @@ static bool dumpScan(const std::string& path, const core::ScanView& scan, const 
 
 static void usage() {
   std::fprintf(stderr,
-               "usage: split_bag BAG [--topic T] [--zeta Z] [--dmin D] [--fixed D] [--dump-scan K CSV]\n"
+               "usage: split_bag BAG [--topic T] [--zeta Z] [--dmin D] [--fixed D] [--veil-angle A] [--dump-scan K CSV]\n"
                "  --topic T  LaserScan topic (default: every LaserScan topic in the bag)\n"
                "  --zeta Z   adaptive factor (default 0.01)\n"
                "  --dmin D   adaptive threshold floor [m] (default 0.03)\n"
                "  --fixed D  fixed threshold d_T = D [m] instead of the adaptive one\n"
+               "  --veil-angle A  mixed-pixel test angle [deg] (default 15; 0: off)\n"
                "  --dump-scan K CSV  write the points, segments and edge points of scan K (0-based) to CSV\n");
 }
 
@@ -60,6 +61,7 @@ int main(int argc, char** argv) {
     else if (a == "--zeta" && v) params.zeta = std::atof(argv[++i]);
     else if (a == "--dmin" && v) params.d_min = std::atof(argv[++i]);
     else if (a == "--fixed" && v) { params.mode = core::SplitMode::Fixed; params.d_min = std::atof(argv[++i]); }
+    else if (a == "--veil-angle" && v) params.veil_angle_deg = std::atof(argv[++i]);
     else if (a == "--dump-scan" && i + 2 < argc) { dump_index = std::atol(argv[++i]); dump_path = argv[++i]; }
     else if (a == "-h" || a == "--help") { usage(); return 0; }
     else if (a[0] != '-' && bag_path.empty()) bag_path = a;
@@ -85,7 +87,8 @@ int main(int argc, char** argv) {
   std::vector<double> times_us;
   std::set<std::string> topics;
   std::set<std::size_t> sizes;
-  unsigned long scans = 0, dropped = 0, segments = 0, edges = 0;
+  unsigned long scans = 0, dropped = 0, segments = 0, edges = 0, veil_points = 0, toward_beam = 0, overhanging = 0;
+  double worst_overhang = 0.0;
   for (const rosbag::MessageInstance& m : *view) {
     const sensor_msgs::LaserScanConstPtr scan = m.instantiate<sensor_msgs::LaserScan>();
     if (!scan) continue;
@@ -105,6 +108,13 @@ int main(int argc, char** argv) {
     times_us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     segments += result.segments.size();
     edges += result.edges.size();
+    veil_points += result.veil_points;
+    for (const auto& s : result.segments) {
+      toward_beam += core::segmentBeamAngle(s) < 15.0 * M_PI / 180.0;
+      const double over = core::segmentOverhang(sv, s);
+      overhanging += over > 0.01;
+      worst_overhang = std::max(worst_overhang, over);
+    }
   }
   if (scans == 0) {
     std::fprintf(stderr, "split_bag: no LaserScan messages%s%s in %s\n", topic.empty() ? "" : " on ",
@@ -121,7 +131,12 @@ int main(int argc, char** argv) {
               params.zeta, params.d_min);
   std::printf("scans: %lu (beams per scan: %s; dropped as malformed: %lu)\n", scans, size_list.c_str(), dropped);
   std::printf("segments: %lu (%.1f per scan)\n", segments, good ? double(segments) / good : 0.0);
-  std::printf("edge points: %lu (%.1f per scan)\n", edges, good ? double(edges) / good : 0.0);
+  std::printf("edge points: %lu (%.1f per scan), of them veil points (mixed pixels): %lu (%.2f per scan)\n", edges,
+              good ? double(edges) / good : 0.0, veil_points, good ? double(veil_points) / good : 0.0);
+  std::printf("segments within 15 deg of their own beam: %lu (%.3f per scan)\n", toward_beam,
+              good ? double(toward_beam) / good : 0.0);
+  std::printf("segments with own points more than 1 cm beyond their ends: %lu (farthest %.3f m)\n", overhanging,
+              worst_overhang);
   if (!times_us.empty()) {
     std::sort(times_us.begin(), times_us.end());
     std::printf("split time per scan [us]: median %.1f, max %.1f\n", times_us[times_us.size() / 2], times_us.back());

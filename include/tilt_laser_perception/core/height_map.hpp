@@ -29,10 +29,6 @@ struct HeightMapParams {
   double floor_tolerance = 0.03;     ///< cells within this of the floor's height are floor [m]
   double obstacle_min_height = 0.05; ///< points this far above a cell's surface make it an obstacle [m]
   double max_step_height = 0.2;      ///< steep planes no taller than this are step faces (risers), not obstacles [m]
-  /// A point that both its neighbours in the scan line see along its own ray
-  /// within this angle is a mixed pixel (a veil between a near and a far
-  /// surface), not an obstacle [deg]; 0 keeps them all.
-  double veil_angle_deg = 10.0;
 };
 
 struct HeightMapGrid {

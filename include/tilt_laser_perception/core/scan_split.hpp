@@ -54,17 +54,18 @@ enum class EdgeKind : std::uint8_t {
   Occluded = 2,  ///< far side of a depth jump (the surface goes on behind)
   Crease = 3,    ///< split point between two segments of one surface run
   Boundary = 4,  ///< next to invalid returns or the end of the scan
+  Veil = 5,      ///< a mixed pixel: a return between a near and a far surface, on no surface (one per beam)
 };
 
-/// Human-readable name of an edge kind ("jump", "occluded", ...).
+/// Human-readable name of an edge kind ("jump", "occluded", ..., "veil").
 const char* edgeKindName(EdgeKind k);
 
 /// A fitted straight line segment.
 struct Segment {
   int first = 0;              ///< first beam index (inclusive)
   int last = 0;               ///< last beam index (inclusive)
-  Eigen::Vector2d start;      ///< first point projected on the fitted line [m]
-  Eigen::Vector2d end;        ///< last point projected on the fitted line [m]
+  Eigen::Vector2d start;      ///< on the fitted line, where its points begin (beam order) [m]
+  Eigen::Vector2d end;        ///< on the fitted line, where its points end: every point projects between [m]
   Eigen::Vector2d direction;  ///< unit vector from start to end
   int count = 0;              ///< valid points fitted
   double rms = 0.0;           ///< rms orthogonal error [m]
@@ -95,6 +96,15 @@ struct SplitParams {
   double jump_ratio = 0.05;  ///< depth jump threshold growth with range [1]
   int min_points = 5;        ///< fewer points than this: no segment
   bool merge = true;         ///< merge neighbouring pieces whose union lies within d_T of its fitted line
+  /// Mixed pixels: a beam whose neighbours on both sides lie along its own
+  /// ray (within this angle), one nearer and one farther, is on no surface
+  /// but between two: the veil a depth edge leaves over the footprint's
+  /// width. Such beams are marked EdgeKind::Veil and split off. 0: off.
+  double veil_angle_deg = 15.0;
+  /// A run of such beams longer than this is a surface seen at grazing
+  /// incidence, not a veil (a footprint spans a few beams: 4 for the
+  /// UTM-30LX's 1 degree at 0.25 degree steps).
+  int veil_max_beams = 8;
 
   /// Empty when valid, else a message naming the bad parameter.
   std::string validate() const;
@@ -156,9 +166,19 @@ ScanError checkScan(const ScanView& scan, const ScanLimits& limits = ScanLimits(
 /// Result of a split; reuse one across scans so that steady state does not allocate.
 struct SplitResult {
   std::vector<Segment> segments;
-  std::vector<EdgePoint> edges;
+  std::vector<EdgePoint> edges;  ///< in beam order
   int valid_points = 0;  ///< returns inside [range_min, range_max]
+  int veil_points = 0;   ///< beams marked EdgeKind::Veil
 };
+
+/// How far a segment's own points reach beyond its reported ends, along it
+/// [m] (0 when all project between start and end). A scan line crosses a
+/// surface in beam order, so its points should not.
+double segmentOverhang(const ScanView& scan, const Segment& segment);
+/// Angle between a segment and the beam through its middle [rad]: near 0,
+/// the segment points at the sensor (a veil of mixed pixels, or a surface at
+/// grazing incidence).
+double segmentBeamAngle(const Segment& segment);
 
 /// The scan line splitter. Keeps its buffers between scans: after the first
 /// scan of a given size it does not allocate. Not thread-safe.
@@ -181,10 +201,12 @@ class ScanSplitter {
     EdgeKind start_kind, end_kind;
   };
   void updateTrig(const ScanView& scan);
+  void markVeils(int n, SplitResult& out);
   void splitRun(const Run& run, SplitResult& out);
   void fitSegment(int first, int last, Segment& seg) const;
   Moments2 rangeMoments(int first, int last) const;
   bool withinTolerance(int first, int last) const;
+  bool mergeable(int first, int split, int last) const;  // pieces [first, split] and [split + 1, last]
   double lineDistance(int first, int last, int i) const;
   static Eigen::Vector2d creasePoint(const Segment& p, const Segment& q);  // point i to the line fitted to [first, last]
 
@@ -192,7 +214,7 @@ class ScanSplitter {
   ScanLimits limits_;
   // per-beam buffers
   std::vector<double> cos_, sin_, x_, y_, r_;
-  std::vector<unsigned char> valid_;
+  std::vector<unsigned char> valid_;  // 1: a return; 0: none or a veil point
   std::vector<Moments2> prefix_;  // prefix_[i]: moments of the valid beams before i
   double trig_angle_min_ = 0.0, trig_increment_ = 0.0;
   std::vector<Run> runs_;

@@ -58,6 +58,8 @@ struct SweepEval {
   double heightmap_rmse_m = 0.0, heightmap_coverage = 0.0;
   double split_ms = 0.0, group_ms = 0.0, latency_ms = 0.0;
   double external_ms = 0.0;               ///< SceneEvalOptions::segmenter's time
+  int veil_segments = 0;                  ///< segments most of whose points are mixed pixels (truth)
+  int overhanging_segments = 0;           ///< segments with own points more than 1 cm beyond their ends
   std::vector<std::string> missed_faces;  ///< "object/label" of the faces missed
   /// For each missed face, the segments on it or in a plane that took its
   /// points: "line L beams A-B (N points, mostly FACE) -> plane P".
