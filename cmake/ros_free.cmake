@@ -36,8 +36,7 @@ add_library(tlp_sim
   ${TLP_ROOT}/src/sim/head.cpp
   ${TLP_ROOT}/src/sim/utm_emulator.cpp
   ${TLP_ROOT}/src/sim/mx64_emulator.cpp
-  ${TLP_ROOT}/src/sim/scene_eval.cpp
-  ${TLP_ROOT}/src/sim/pcd.cpp)
+  ${TLP_ROOT}/src/sim/scene_eval.cpp)
 target_link_libraries(tlp_sim tlp_core tlp_scip tlp_dynamixel yaml-cpp util Threads::Threads)
 target_compile_definitions(tlp_sim PRIVATE
   TLP_SOURCE_DIR="${TLP_ROOT}"

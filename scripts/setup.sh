@@ -29,6 +29,7 @@ PKGS=(
   liburdf-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
   # libraries
   libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev
+  libpcl-dev   # PCD files (segment_cloud) and the comparison with PCL (compare_pcl)
   # hardening: sanitizer builds (gcc) and libFuzzer targets (clang)
   clang libclang-rt-14-dev ninja-build
   # python tests and scripts

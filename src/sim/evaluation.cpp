@@ -1,6 +1,7 @@
 #include "tilt_laser_perception/sim/evaluation.hpp"
 
 #include <cstdlib>
+#include <set>
 
 namespace tilt_laser_perception {
 namespace sim {
@@ -21,6 +22,88 @@ EdgeScore scoreEdges(const std::vector<core::EdgePoint>& edges, const std::vecto
     s.found += hit;
   }
   return s;
+}
+
+void RegionOverlap::add(int truth, int found) {
+  if (truth >= 0) ++truth_count[truth];
+  if (found >= 0) ++found_count[found];
+  if (truth >= 0 && found >= 0) ++overlap[{found, truth}];
+}
+
+RegionOverlap RegionOverlap::of(const std::vector<int>& truth, const std::vector<int>& found) {
+  RegionOverlap o;
+  for (std::size_t i = 0; i < truth.size() && i < found.size(); ++i) o.add(truth[i], found[i]);
+  return o;
+}
+
+HooverScore hooverScore(const RegionOverlap& o, double T, const std::function<bool(int)>& expected,
+                        int min_noise_points) {
+  HooverScore h;
+  const auto count = [](const std::map<int, int>& m, int k) {
+    const auto it = m.find(k);
+    return it == m.end() ? 0 : it->second;
+  };
+  std::set<int> wanted;
+  for (const auto& [t, n] : o.truth_count)
+    if (expected(t)) wanted.insert(t);
+  h.expected = static_cast<int>(wanted.size());
+  std::set<int> truth_done, found_done;
+  for (const auto& [key, n] : o.overlap) {
+    const auto [d, t] = key;
+    if (n >= T * count(o.found_count, d) && n >= T * count(o.truth_count, t) && wanted.count(t)) {
+      ++h.correct;
+      h.correct_pairs.emplace_back(d, t);
+      truth_done.insert(t);
+      found_done.insert(d);
+    }
+  }
+  for (int t : wanted) {  // over-segmented
+    if (truth_done.count(t)) continue;
+    int sum = 0;
+    std::vector<int> ds;
+    for (const auto& [key, n] : o.overlap)
+      if (key.second == t && n >= T * count(o.found_count, key.first)) {
+        sum += n;
+        ds.push_back(key.first);
+      }
+    if (ds.size() >= 2 && sum >= T * count(o.truth_count, t)) {
+      ++h.over;
+      truth_done.insert(t);
+      found_done.insert(ds.begin(), ds.end());
+    }
+  }
+  for (const auto& [d, nd] : o.found_count) {  // under-segmented
+    if (found_done.count(d)) continue;
+    int sum = 0;
+    std::vector<int> ts;
+    for (const auto& [key, n] : o.overlap)
+      if (key.first == d && n >= T * count(o.truth_count, key.second)) {
+        sum += n;
+        ts.push_back(key.second);
+      }
+    if (ts.size() >= 2 && sum >= T * nd) {
+      ++h.under;
+      found_done.insert(d);
+      truth_done.insert(ts.begin(), ts.end());
+    }
+  }
+  for (int t : wanted)
+    if (!truth_done.count(t)) {
+      ++h.missed;
+      h.missed_truth.push_back(t);
+    }
+  for (const auto& [d, nd] : o.found_count) {  // noise
+    if (found_done.count(d) || nd < min_noise_points) continue;
+    int best = 0, best_t = -1;
+    for (const auto& [key, n] : o.overlap)
+      if (key.first == d && n > best) {
+        best = n;
+        best_t = key.second;
+      }
+    if (best_t >= 0 && !wanted.count(best_t) && best >= T * nd) continue;
+    ++h.noise;
+  }
+  return h;
 }
 
 Figure3Row runFigure3Case(const Scene& scene, double distance_m, const core::SplitParams& params, int seeds,

@@ -41,8 +41,7 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
   SweepEval e;
   e.lines = static_cast<int>(sw.lines.size());
   // Points judged: valid returns within the radius; their true face and detected plane.
-  std::map<int, int> face_count, plane_count;
-  std::map<std::pair<int, int>, int> overlap;  // (plane, face)
+  RegionOverlap ov;
   std::vector<std::vector<int>> plane_of(sw.lines.size());
   for (std::size_t li = 0; li < sw.lines.size(); ++li) plane_of[li].assign(sw.lines[li].points.size(), -1);
   std::vector<core::Plane> external_planes;
@@ -73,124 +72,68 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
     for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
       const Eigen::Vector3f& p = sw.lines[li].points[i];
       if (!std::isfinite(p.x()) || std::hypot(p.x(), p.y()) > o.eval_radius) continue;
-      const int f = t.face[i];
-      const int d = plane_of[li][i];
-      if (f >= 0) ++face_count[f];
-      if (d >= 0) ++plane_count[d];
-      if (f >= 0 && d >= 0) ++overlap[{d, f}];
+      ov.add(t.face[i], plane_of[li][i]);
     }
   }
   e.edge_precision = edges_found ? 1.0 - static_cast<double>(edges_spurious) / edges_found : 1.0;
   e.edge_recall = edges_true ? static_cast<double>(edges_hit) / edges_true : 1.0;
 
-  std::set<int> expected;
-  for (const auto& [f, n] : face_count)
-    if (n >= o.min_face_points && scene.faces[f].area() >= o.min_face_area) expected.insert(f);
-  e.true_faces = static_cast<int>(expected.size());
-  const double T = o.overlap;
-  std::set<int> faces_done, planes_done;
-  double nerr = 0.0, oerr = 0.0;
-  for (const auto& [key, n] : overlap) {
-    const auto [d, f] = key;
-    if (n >= T * plane_count[d] && n >= T * face_count[f] && expected.count(f)) {
-      ++e.correct;
-      faces_done.insert(f);
-      planes_done.insert(d);
-      const Face& face = scene.faces[f];
-      const core::Plane& pl = planes[d];
-      nerr += std::acos(std::min(1.0, std::abs(pl.fit.normal.dot(face.normal)))) * 180.0 / M_PI;
-      oerr += std::abs(face.normal.dot(pl.fit.centroid - face.origin));
-    }
+  const HooverScore h = hooverScore(
+      ov, o.overlap,
+      [&](int f) { return ov.truth_count.at(f) >= o.min_face_points && scene.faces[f].area() >= o.min_face_area; },
+      o.min_face_points);
+  e.true_faces = h.expected;
+  e.correct = h.correct;
+  e.over = h.over;
+  e.under = h.under;
+  e.missed = h.missed;
+  e.noise = h.noise;
+  for (const auto& [d, f] : h.correct_pairs) {
+    const Face& face = scene.faces[f];
+    const core::Plane& pl = planes[d];
+    e.normal_err_deg += std::acos(std::min(1.0, std::abs(pl.fit.normal.dot(face.normal)))) * 180.0 / M_PI / e.correct;
+    e.offset_err_m += std::abs(face.normal.dot(pl.fit.centroid - face.origin)) / e.correct;
   }
-  if (e.correct) {
-    e.normal_err_deg = nerr / e.correct;
-    e.offset_err_m = oerr / e.correct;
-  }
-  // Over-segmentation: a face covered by several planes that lie mostly on it.
-  for (int f : expected) {
-    if (faces_done.count(f)) continue;
-    int sum = 0, parts = 0;
-    std::vector<int> ds;
+  const auto& face_count = ov.truth_count;
+  const auto& plane_count = ov.found_count;
+  const auto& overlap = ov.overlap;
+  for (int f : h.missed_truth) {
+    // Where its points went: "object/label (N points: plane:count ..., none:count)".
+    std::string where = scene.faces[f].object + "/" + scene.faces[f].label + " (" +
+                        std::to_string(face_count.at(f)) + " points:";
+    int assigned = 0;
     for (const auto& [key, n] : overlap)
-      if (key.second == f && n >= T * plane_count[key.first]) {
-        sum += n;
-        ++parts;
-        ds.push_back(key.first);
+      if (key.second == f) {
+        where += " plane" + std::to_string(key.first) + "[" + std::to_string(plane_count.at(key.first)) +
+                 "]:" + std::to_string(n);
+        assigned += n;
       }
-    if (parts >= 2 && sum >= T * face_count[f]) {
-      ++e.over;
-      faces_done.insert(f);
-      planes_done.insert(ds.begin(), ds.end());
-    }
-  }
-  // Under-segmentation: a plane covering several faces that lie mostly in it.
-  for (const auto& [d, nd] : plane_count) {
-    if (planes_done.count(d)) continue;
-    int sum = 0, parts = 0;
-    std::vector<int> fs;
-    for (const auto& [key, n] : overlap)
-      if (key.first == d && n >= T * face_count[key.second]) {
-        sum += n;
-        ++parts;
-        fs.push_back(key.second);
-      }
-    if (parts >= 2 && sum >= T * nd) {
-      ++e.under;
-      planes_done.insert(d);
-      for (int f : fs) faces_done.insert(f);
-    }
-  }
-  for (int f : expected)
-    if (!faces_done.count(f)) {
-      ++e.missed;
-      // Where its points went: "object/label (N points: plane:count ..., none:count)".
-      std::string where = scene.faces[f].object + "/" + scene.faces[f].label + " (" +
-                          std::to_string(face_count[f]) + " points:";
-      int assigned = 0;
-      for (const auto& [key, n] : overlap)
-        if (key.second == f) {
-          where += " plane" + std::to_string(key.first) + "[" + std::to_string(plane_count[key.first]) +
-                   "]:" + std::to_string(n);
-          assigned += n;
+    where += " none:" + std::to_string(face_count.at(f) - assigned) + ")";
+    e.missed_faces.push_back(where);
+    if (o.segmenter) continue;
+    for (std::size_t si = 0; si < sw.segments.size(); ++si) {
+      const core::Segment3& s = sw.segments[si];
+      const auto it = truth.find(sw.lines[s.line].stamp);
+      if (it == truth.end()) continue;
+      std::map<int, int> faces;
+      for (int i = s.first; i <= s.last; ++i) ++faces[it->second.face[i]];
+      const int pl = sw.segment_plane[si];
+      const auto on_face = overlap.find({pl, f});
+      const auto on_it = faces.find(f);
+      if ((on_it == faces.end() || on_it->second < 3) && !(on_face != overlap.end() && on_face->second >= 0.1 * face_count.at(f))) continue;
+      int mf = -1, mn = -1;
+      for (const auto& [face, n] : faces)
+        if (n > mn) {
+          mn = n;
+          mf = face;
         }
-      where += " none:" + std::to_string(face_count[f] - assigned) + ")";
-      e.missed_faces.push_back(where);
-      if (o.segmenter) continue;
-      for (std::size_t si = 0; si < sw.segments.size(); ++si) {
-        const core::Segment3& s = sw.segments[si];
-        const auto it = truth.find(sw.lines[s.line].stamp);
-        if (it == truth.end()) continue;
-        std::map<int, int> faces;
-        for (int i = s.first; i <= s.last; ++i) ++faces[it->second.face[i]];
-        const int pl = sw.segment_plane[si];
-        const auto on_face = overlap.find({pl, f});
-        const auto on_it = faces.find(f);
-        if ((on_it == faces.end() || on_it->second < 3) && !(on_face != overlap.end() && on_face->second >= 0.1 * face_count[f])) continue;
-        int mf = -1, mn = -1;
-        for (const auto& [face, n] : faces)
-          if (n > mn) {
-            mn = n;
-            mf = face;
-          }
-        e.missed_segments.push_back(
-            scene.faces[f].label + ": line " + std::to_string(s.line) + " beams " + std::to_string(s.first) + "-" +
-            std::to_string(s.last) + " (" + std::to_string(static_cast<int>(s.moments.n)) + " points, " +
-            std::to_string(on_it == faces.end() ? 0 : on_it->second) + " on it, mostly " +
-            (mf >= 0 ? scene.faces[mf].object + "/" + scene.faces[mf].label : std::string("none")) + ") -> plane " +
-            std::to_string(pl));
-      }
+      e.missed_segments.push_back(
+          scene.faces[f].label + ": line " + std::to_string(s.line) + " beams " + std::to_string(s.first) + "-" +
+          std::to_string(s.last) + " (" + std::to_string(static_cast<int>(s.moments.n)) + " points, " +
+          std::to_string(on_it == faces.end() ? 0 : on_it->second) + " on it, mostly " +
+          (mf >= 0 ? scene.faces[mf].object + "/" + scene.faces[mf].label : std::string("none")) + ") -> plane " +
+          std::to_string(pl));
     }
-  // Noise: planes that are none of the above and do not mostly lie on a face too small to be expected.
-  for (const auto& [d, nd] : plane_count) {
-    if (planes_done.count(d) || nd < o.min_face_points) continue;
-    int best = 0, best_f = -1;
-    for (const auto& [key, n] : overlap)
-      if (key.first == d && n > best) {
-        best = n;
-        best_f = key.second;
-      }
-    if (best_f >= 0 && !expected.count(best_f) && best >= T * nd) continue;
-    ++e.noise;
   }
 
   // Height map against the true one, within the radius (the grid is kept

@@ -1,7 +1,8 @@
 // Split and scan line grouping on any organized point cloud whose rows (or
 // columns) are scan lines: a multi-beam lidar's rings, a range image, or a
-// sweep_cloud of this package. Prints the planes and the time; writes the
-// cloud back with a label per point (0: no plane).
+// sweep_cloud of this package, any PCD file PCL reads. Prints the planes and
+// the time; with --truth-field, Hoover et al.'s figures against a label field
+// of the cloud; writes the cloud back with a label per point (0: no plane).
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -9,20 +10,28 @@
 #include <string>
 
 #include "tilt_laser_perception/core/polyline_split.hpp"
-#include "tilt_laser_perception/sim/pcd.hpp"
+#include "tilt_laser_perception/io/pcd.hpp"
+#include "tilt_laser_perception/sim/evaluation.hpp"
 
 using namespace tilt_laser_perception;
 
 static void usage() {
   std::fprintf(stderr,
                "usage: segment_cloud CLOUD.pcd [--scan-lines rows|columns] [--out LABELS.pcd] [--zeta Z] [--dmin D]\n"
-               "  the cloud must be organized (HEIGHT > 1); its VIEWPOINT is the sensor's position\n");
+               "                     [--truth-field NAME [--truth-none V] [--overlap T]]\n"
+               "  the cloud must be organized (HEIGHT > 1); its VIEWPOINT is the sensor's position;\n"
+               "  PCD data ascii, binary or binary_compressed, fields in any order (PCL's reader)\n"
+               "  --truth-field NAME  judge the planes against the labels in field NAME (Hoover et al., 80 %%)\n"
+               "  --truth-none V      the label value that means no plane (default: every value is a plane)\n"
+               "  --out FILE          x y z label (PointXYZL, binary_compressed)\n");
 }
 
 int main(int argc, char** argv) {
   std::string in, out;
   bool rows = true;
   core::SplitParams split;
+  io::TruthField truth;
+  double overlap = 0.8;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
@@ -33,12 +42,15 @@ int main(int argc, char** argv) {
     } else if (a == "--out" && v) out = argv[++i];
     else if (a == "--zeta" && v) split.zeta = std::atof(argv[++i]);
     else if (a == "--dmin" && v) split.d_min = std::atof(argv[++i]);
+    else if (a == "--truth-field" && v) truth.name = argv[++i];
+    else if (a == "--truth-none" && v) { truth.has_none = true; truth.none = std::atof(argv[++i]); }
+    else if (a == "--overlap" && v) overlap = std::atof(argv[++i]);
     else if (a[0] != '-' && in.empty()) in = a;
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
-  if (in.empty()) { usage(); return 2; }
+  if (in.empty() || !(overlap > 0.5 && overlap <= 1.0)) { usage(); return 2; }
   try {
-    const sim::OrganizedCloud c = sim::readPcd(in);
+    const io::OrganizedCloud c = io::readPcd(in, truth);
     if (c.height < 2 || c.width < 2) throw std::runtime_error(in + " is not organized (HEIGHT and WIDTH must be > 1)");
     std::vector<core::Plane> planes;
     std::vector<std::uint32_t> labels;
@@ -54,8 +66,20 @@ int main(int argc, char** argv) {
       std::printf("%d,%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%.4f\n", p.id + 1, p.points, p.segments, p.area,
                   p.fit.normal.x(), p.fit.normal.y(), p.fit.normal.z(), p.fit.offset, p.fit.centroid.x(),
                   p.fit.centroid.y(), p.fit.centroid.z(), p.fit.rms);
+    if (!truth.name.empty()) {
+      // Points without coordinates are judged by no one.
+      std::vector<int> found(labels.size()), truth_labels(c.truth);
+      for (std::size_t i = 0; i < labels.size(); ++i) {
+        found[i] = static_cast<int>(labels[i]) - 1;
+        if (!c.points[i].allFinite()) truth_labels[i] = found[i] = -1;
+      }
+      const sim::RegionOverlap ov = sim::RegionOverlap::of(truth_labels, found);
+      const sim::HooverScore h = sim::hooverScore(ov, overlap, [](int) { return true; });
+      std::printf("truth '%s': %d planes; at %.0f %% overlap: correct=%d over=%d under=%d missed=%d noise=%d\n",
+                  truth.name.c_str(), h.expected, overlap * 100.0, h.correct, h.over, h.under, h.missed, h.noise);
+    }
     if (!out.empty()) {
-      sim::writeLabeledPcd(out, c, labels);
+      io::writeLabeledPcd(out, c, labels);
       std::printf("labels written to %s\n", out.c_str());
     }
   } catch (const std::exception& e) {

@@ -5,7 +5,10 @@
  */
 #pragma once
 
+#include <functional>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tilt_laser_perception/core/scan_split.hpp"
@@ -25,6 +28,33 @@ struct EdgeScore {
 /// Scores edge points against true edges (both sorted or not), within `tolerance` beams.
 EdgeScore scoreEdges(const std::vector<core::EdgePoint>& edges, const std::vector<TrueEdge>& truth,
                      int tolerance = 2);
+
+/// Point counts of a segmentation against the truth: per true region, per
+/// found region, and per (found, true) pair.
+struct RegionOverlap {
+  std::map<int, int> truth_count, found_count;
+  std::map<std::pair<int, int>, int> overlap;  ///< (found, truth) -> points in both
+  void add(int truth, int found);              ///< one point; -1: in no region
+  /// From one label per point (-1: none).
+  static RegionOverlap of(const std::vector<int>& truth, const std::vector<int>& found);
+};
+
+/// Hoover et al.'s comparison ("An experimental comparison of range image
+/// segmentation algorithms", 1996) at tolerance T.
+struct HooverScore {
+  int expected = 0;  ///< true regions expected to be found
+  int correct = 0, over = 0, under = 0, missed = 0, noise = 0;
+  std::vector<std::pair<int, int>> correct_pairs;  ///< (found, truth)
+  std::vector<int> missed_truth;                   ///< expected true regions missed
+};
+
+/// Correct: a pair sharing at least T of both regions; over-segmented: a
+/// true region covered for T by several found regions each lying T in it;
+/// under-segmented: the converse; missed: expected true regions none of
+/// these; noise: the remaining found regions of `min_noise_points` or more,
+/// unless they lie T on a true region that was not expected.
+HooverScore hooverScore(const RegionOverlap& o, double tolerance, const std::function<bool(int)>& expected,
+                        int min_noise_points = 0);
 
 /// One row of the Figure 3 table: means over the seeds.
 struct Figure3Row {
