@@ -34,7 +34,22 @@ echo "== Sweeps of the stairs scene (head tilting 10..60 deg at 1 rad/s), judged
 "$bin/evaluate" --scene stairs --sweeps 5 --dump "$out/stairs" | tee "$out/evaluate.csv"
 echo "== The same with one joint angle per scan line (at its stamp) instead of one per beam"
 "$bin/evaluate" --scene stairs --sweeps 5 --no-skew | tail -1 | tee "$out/evaluate_no_skew.txt"
+echo "== The same with a real rig's errors (--realistic: encoder, backlash, timing, mount, footprint; README)"
+"$bin/evaluate" --scene stairs --sweeps 5 --realistic | tail -1 | tee "$out/evaluate_realistic.txt"
 python3 "$here/scripts/plot_heightmap.py" "$out/stairs" "$out/heightmap_evaluate.png"
+echo
+# Another rig's real recording (../shared/data, when it is there): imported, then grouped offline.
+rig_bag="$here/../shared/data/real/tilting_lidar_scanner/room_240.bag"
+if [ -f "$rig_bag" ]; then
+  echo "== Another rig's recording: tilting_lidar_scanner room_240 (URG-04LX on a hobby servo), imported and grouped"
+  python3 "$here/scripts/import_tilt_bag.py" "$rig_bag" "$out/room_240_tlp.bag" | tee "$out/room_240.txt"
+  "$bin/group_bag" "$out/room_240_tlp.bag" --urdf "$out/room_240_tlp.urdf" --room --dump "$out/room_240" |
+    tee -a "$out/room_240.txt"
+  python3 "$here/scripts/plot_cloud.py" "$out/room_240_sweep0.pcd" "$out/room_240.png" \
+    "room_240 (tilting_lidar_scanner), its first sweep; colours: planes" | tee -a "$out/room_240.txt"
+else
+  echo "(../shared/data absent: the other rig's recording is skipped)" > "$out/room_240.txt"
+fi
 echo
 echo "== The emulated head on the stairs scene with the whole pipeline (sim.launch): 5 sweeps, rviz"
 export ROS_HOME="${ROS_HOME:-$ws/ros_home}"
@@ -74,8 +89,13 @@ python3 "$here/scripts/plot_heightmap.py" "$out/live" "$out/heightmap.png"
   echo
   echo "With one joint angle per scan line instead of one per beam:"
   cat "$out/evaluate_no_skew.txt"
+  echo "With a real rig's errors (--realistic):"
+  cat "$out/evaluate_realistic.txt"
   echo
-  echo "Pictures: $out/heightmap.png (live), $out/rviz.png, $out/split.png, $out/heightmap_evaluate.png"
+  echo "== Another rig's recording (import_tilt_bag.py, group_bag):"
+  cat "$out/room_240.txt"
+  echo
+  echo "Pictures: $out/heightmap.png (live), $out/rviz.png, $out/split.png, $out/heightmap_evaluate.png, $out/room_240.png (another rig)"
 } > "$out/summary.txt"
 echo
 cat "$out/summary.txt"

@@ -78,7 +78,8 @@ OrganizedCloud readPcd(const std::string& path, const TruthField& truth) {
   return out;
 }
 
-void writeLabeledPcd(const std::string& path, const OrganizedCloud& c, const std::vector<std::uint32_t>& labels) {
+void writeLabeledPcd(const std::string& path, const OrganizedCloud& c, const std::vector<std::uint32_t>& labels,
+                     bool ascii) {
   pcl::PointCloud<pcl::PointXYZL> cloud;
   cloud.width = static_cast<std::uint32_t>(c.width);
   cloud.height = static_cast<std::uint32_t>(c.height);
@@ -93,7 +94,7 @@ void writeLabeledPcd(const std::string& path, const OrganizedCloud& c, const std
   }
   cloud.sensor_origin_ = Eigen::Vector4f(static_cast<float>(c.viewpoint.x()), static_cast<float>(c.viewpoint.y()),
                                          static_cast<float>(c.viewpoint.z()), 0.0f);
-  if (pcl::io::savePCDFileBinaryCompressed(path, cloud) < 0) throw std::runtime_error("cannot write " + path);
+  if ((ascii ? pcl::io::savePCDFileASCII(path, cloud) : pcl::io::savePCDFileBinaryCompressed(path, cloud)) < 0) throw std::runtime_error("cannot write " + path);
 }
 
 }  // namespace io

@@ -36,9 +36,11 @@ struct TruthField {
 /// field; throws std::runtime_error naming the file and what is wrong.
 OrganizedCloud readPcd(const std::string& path, const TruthField& truth = TruthField());
 
-/// Writes x y z label (PointXYZL, binary_compressed), width, height and the
-/// viewpoint kept: a cloud PCL's tools read as they read their own.
-void writeLabeledPcd(const std::string& path, const OrganizedCloud& cloud, const std::vector<std::uint32_t>& labels);
+/// Writes x y z label (PointXYZL; binary_compressed, or ascii for scripts
+/// to read), width, height and the viewpoint kept: a cloud PCL's tools read
+/// as they read their own.
+void writeLabeledPcd(const std::string& path, const OrganizedCloud& cloud, const std::vector<std::uint32_t>& labels,
+                     bool ascii = false);
 
 }  // namespace io
 }  // namespace tilt_laser_perception

@@ -1,0 +1,227 @@
+// Runs the whole pipeline offline over a recording (split, sweep assembly,
+// grouping, height map), as replay.launch does in real time, and prints each
+// sweep's planes. For recordings of other rigs after import_tilt_bag.py.
+//   group_bag BAG --urdf FILE [--frame base_footprint] [--joint head_tilt_joint] [--laser laser]
+//             [--dump PREFIX] [--room]
+// --dump writes each sweep's points with their plane (PREFIX_sweepK.pcd, ascii x y z label, 0: none).
+// --room judges each sweep as a room: the floor (the lowest level that holds
+// 2 % of the points, +-5 cm) and the largest wall (the vertical plane with the
+// most points within 5 cm, found by a Hough vote over all points), each by
+// the share of its points that the largest plane on it holds.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <geometry_msgs/TransformStamped.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/JointState.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2/buffer_core.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_msgs/TFMessage.h>
+#include <urdf/model.h>
+
+#include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/io/pcd.hpp"
+#include "tilt_laser_perception/ros/conversions.hpp"
+
+using namespace tilt_laser_perception;
+
+namespace {
+void usage() {
+  std::fprintf(stderr,
+               "usage: group_bag BAG --urdf FILE [--frame F] [--joint J] [--laser L] [--dump PREFIX] [--room]\n");
+}
+
+struct Share {
+  int points = 0;     // points of the surface
+  int best = 0;       // of them in the plane that holds most
+  int plane = -1;
+  double fraction() const { return points ? static_cast<double>(best) / points : 0.0; }
+};
+
+Share share(const core::SweepResult& sw, const std::vector<std::vector<int>>& label,
+            const std::function<bool(const Eigen::Vector3f&)>& on) {
+  Share s;
+  std::map<int, int> by_plane;
+  for (std::size_t li = 0; li < sw.lines.size(); ++li)
+    for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
+      const Eigen::Vector3f& p = sw.lines[li].points[i];
+      if (!p.allFinite() || !on(p)) continue;
+      ++s.points;
+      if (label[li][i] >= 0) ++by_plane[label[li][i]];
+    }
+  for (const auto& [pl, n] : by_plane)
+    if (n > s.best) {
+      s.best = n;
+      s.plane = pl;
+    }
+  return s;
+}
+
+void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>& label) {
+  std::vector<Eigen::Vector3f> pts;
+  for (const auto& l : sw.lines)
+    for (const auto& p : l.points)
+      if (p.allFinite()) pts.push_back(p);
+  if (pts.size() < 100) return;
+  // The floor: the lowest 1 cm level holding 2 % of the points.
+  std::map<int, int> zbins;
+  for (const auto& p : pts) ++zbins[static_cast<int>(std::floor(p.z() / 0.01))];
+  double floor_z = NAN;
+  for (const auto& [b, n] : zbins)
+    if (n >= 0.02 * pts.size()) {
+      floor_z = (b + 0.5) * 0.01;
+      break;
+    }
+  const Share floor = share(sw, label, [&](const Eigen::Vector3f& p) { return std::abs(p.z() - floor_z) < 0.05; });
+  // The largest wall: a Hough vote of the points above the floor over
+  // vertical planes x cos(a) + y sin(a) = d (1 degree, 2 cm).
+  std::map<std::pair<int, int>, int> votes;
+  for (const auto& p : pts) {
+    if (!(p.z() > floor_z + 0.1)) continue;
+    for (int a = 0; a < 180; ++a) {
+      const double t = a * M_PI / 180.0;
+      ++votes[{a, static_cast<int>(std::floor((p.x() * std::cos(t) + p.y() * std::sin(t)) / 0.02))}];
+    }
+  }
+  std::pair<int, int> best{0, 0};
+  int most = 0;
+  for (const auto& [k, n] : votes)
+    if (n > most) {
+      most = n;
+      best = k;
+    }
+  const double t = best.first * M_PI / 180.0, d = (best.second + 0.5) * 0.02;
+  const Share wall = share(sw, label, [&](const Eigen::Vector3f& p) {
+    return p.z() > floor_z + 0.1 && std::abs(p.x() * std::cos(t) + p.y() * std::sin(t) - d) < 0.05;
+  });
+  std::printf("  room: floor at z=%.3f m: %d points, %.1f %% in plane %d; largest wall (normal %.0f deg, %.2f m): %d points, "
+              "%.1f %% in plane %d\n",
+              floor_z, floor.points, 100.0 * floor.fraction(), floor.plane, best.first * 1.0, d, wall.points,
+              100.0 * wall.fraction(), wall.plane);
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string bag_path, urdf_path, frame = "base_footprint", joint = "head_tilt_joint", laser = "laser", dump;
+  bool room = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool v = i + 1 < argc;
+    if (a == "--urdf" && v) urdf_path = argv[++i];
+    else if (a == "--frame" && v) frame = argv[++i];
+    else if (a == "--joint" && v) joint = argv[++i];
+    else if (a == "--laser" && v) laser = argv[++i];
+    else if (a == "--dump" && v) dump = argv[++i];
+    else if (a == "--room") room = true;
+    else if (a[0] != '-' && bag_path.empty()) bag_path = a;
+    else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
+  }
+  if (bag_path.empty() || urdf_path.empty()) { usage(); return 2; }
+  urdf::Model model;
+  if (!model.initFile(urdf_path)) { std::fprintf(stderr, "group_bag: cannot read URDF %s\n", urdf_path.c_str()); return 1; }
+  core::TiltChain chain;
+  std::string parent, error;
+  if (!tiltChainFromUrdf(model, joint, laser, chain, parent, error)) {
+    std::fprintf(stderr, "group_bag: %s\n", error.c_str());
+    return 1;
+  }
+  rosbag::Bag bag;
+  try {
+    bag.open(bag_path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagException& e) {
+    std::fprintf(stderr, "group_bag: cannot open %s: %s\n", bag_path.c_str(), e.what());
+    return 1;
+  }
+  tf2::BufferCore tf(ros::Duration(1e6));
+  const auto base_pose = [&](double t, Eigen::Isometry3d& pose) {
+    try {
+      pose = tf2::transformToEigen(tf.lookupTransform(frame, parent, ros::Time(t)));
+      return core::SweepAssembler::PoseStatus::Ok;
+    } catch (const tf2::TransformException&) {
+      return core::SweepAssembler::PoseStatus::Missing;
+    }
+  };
+  core::SweepParams sp;
+  sp.max_lines = 5000;  // a slow stand sweeps with many lines
+  core::SweepAssembler assembler(sp, chain, base_pose);
+  core::ScanSplitter splitter;
+  core::SplitResult split;
+  core::HeightMapGrid grid;
+  int sweeps = 0, scans = 0;
+  double last = 0.0;
+  const auto report = [&](const core::SweepResult& sw) {
+    core::buildHeightMap(sw, core::HeightMapParams(), grid);
+    std::vector<std::vector<int>> label(sw.lines.size());
+    for (std::size_t li = 0; li < sw.lines.size(); ++li) label[li].assign(sw.lines[li].points.size(), -1);
+    for (std::size_t si = 0; si < sw.segments.size(); ++si)
+      for (int i = sw.segments[si].first; i <= sw.segments[si].last; ++i)
+        label[sw.segments[si].line][i] = sw.segment_plane[si];
+    std::vector<core::Plane> planes = sw.planes;
+    std::sort(planes.begin(), planes.end(), [](const core::Plane& a, const core::Plane& b) { return a.points > b.points; });
+    std::printf("sweep %d: %zu lines, %zu planes; finish %.2f ms\n", sweeps, sw.lines.size(), sw.planes.size(),
+                sw.finish_seconds * 1e3);
+    for (std::size_t k = 0; k < planes.size() && k < 6; ++k) {
+      const core::Plane& p = planes[k];
+      std::printf("  plane %d: %d points, %.2f m^2, normal (%.3f %.3f %.3f), offset %.3f m, rms %.4f m\n", p.id,
+                  p.points, p.area, p.fit.normal.x(), p.fit.normal.y(), p.fit.normal.z(), p.fit.offset, p.fit.rms);
+    }
+    if (room) judgeRoom(sw, label);
+    if (!dump.empty()) {
+      io::OrganizedCloud c;
+      std::vector<std::uint32_t> labels;
+      for (std::size_t li = 0; li < sw.lines.size(); ++li)
+        for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
+          if (!sw.lines[li].points[i].allFinite()) continue;
+          c.points.push_back(sw.lines[li].points[i]);
+          labels.push_back(static_cast<std::uint32_t>(label[li][i] + 1));
+        }
+      c.width = static_cast<int>(c.points.size());
+      c.height = 1;
+      const std::string path = dump + "_sweep" + std::to_string(sweeps) + ".pcd";
+      io::writeLabeledPcd(path, c, labels, true);
+      std::printf("  points with their planes: %s\n", path.c_str());
+    }
+    ++sweeps;
+  };
+  core::SweepResult done;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+    last = m.getTime().toSec();
+    if (const auto t = m.instantiate<tf2_msgs::TFMessage>()) {
+      const bool is_static = m.getTopic() == "/tf_static";
+      for (const auto& tr : t->transforms) tf.setTransform(tr, "bag", is_static);
+    } else if (const auto js = m.instantiate<sensor_msgs::JointState>()) {
+      for (std::size_t i = 0; i < js->name.size() && i < js->position.size(); ++i)
+        if (js->name[i] == joint) assembler.addJoint(js->header.stamp.toSec(), js->position[i]);
+    } else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>()) {
+      ++scans;
+      if (splitter.split(toScanView(*scan), split) != core::ScanError::None) continue;
+      core::LineInput in;
+      in.ranges = scan->ranges;
+      in.angle_min = scan->angle_min;
+      in.angle_increment = scan->angle_increment;
+      in.range_min = scan->range_min;
+      in.range_max = scan->range_max;
+      in.stamp = scan->header.stamp.toSec();
+      in.time_increment = scan->time_increment;
+      for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
+      for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
+      assembler.addLine(std::move(in), last);
+    }
+    while (assembler.poll(last, done)) report(done);
+  }
+  while (assembler.poll(last + 10.0, done)) report(done);
+  const core::SweepCounters& c = assembler.counters();
+  std::printf("%d scans, %d sweeps; lines %lu, without joint states %lu, out of order %lu, without pose %lu, bad %lu, "
+              "joints out of order %lu; sweeps dropped %lu; %s\n",
+              scans, sweeps, c.lines, c.lines_no_joint, c.lines_out_of_order, c.lines_no_pose, c.lines_bad,
+              c.joints_out_of_order, c.sweeps_dropped,
+              assembler.lastWarning().empty() ? "no warnings" : ("last warning: " + assembler.lastWarning()).c_str());
+  return 0;
+}

@@ -1,0 +1,121 @@
+"""import_tilt_bag.py and group_bag on recordings of another rig: a synthetic
+stepping stand over a floor, written in the tilting_lidar_scanner's own message
+type (pcg_node/LaserScanAngle, generated from its definition as rosbag does),
+and, when ../shared/data is there, the real room_240 recording."""
+import math
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+
+HERE = os.path.dirname(os.path.realpath(__file__))
+ROOT = os.path.dirname(HERE)
+IMPORT = os.path.join(ROOT, "scripts", "import_tilt_bag.py")
+BIN = os.environ.get("TLP_BIN", os.path.join(ROOT, "build_ws", "build", "tilt_laser_perception", "devel", "lib",
+                                             "tilt_laser_perception"))
+SHARED = os.path.join(ROOT, "..", "shared", "data", "real", "tilting_lidar_scanner")
+
+DEFINITION = """sensor_msgs/LaserScan laserScan
+float64 stepAngle
+================================================================================
+MSG: sensor_msgs/LaserScan
+Header header
+float32 angle_min
+float32 angle_max
+float32 angle_increment
+float32 time_increment
+float32 scan_time
+float32 range_min
+float32 range_max
+float32[] ranges
+float32[] intensities
+================================================================================
+MSG: std_msgs/Header
+uint32 seq
+time stamp
+string frame_id
+"""
+
+
+def stand_bag(path, height=1.1075, arm=0.08):
+    """A stand stepping 10 -> 60 -> 50 deg (0.5 deg a scan, 10 Hz) over a floor, as the rig's node records it."""
+    import genpy.dynamic
+    import rosbag
+    import rospy
+    cls = genpy.dynamic.generate_dynamic("pcg_node/LaserScanAngle", DEFINITION)["pcg_node/LaserScanAngle"]
+    tilts = [10 + 0.5 * k for k in range(101)] + [60 - 0.5 * k for k in range(1, 21)]
+    inc, n = 0.006135923, 681
+    amin = -inc * (n - 1) / 2
+    with rosbag.Bag(path, "w") as bag:
+        for k, deg in enumerate(tilts):
+            th = math.radians(deg)
+            oz = height + arm * math.cos(th)
+            m = cls()
+            s = m.laserScan
+            s.header.seq = k
+            s.header.stamp = rospy.Time(1436377047.0 + 0.1 * k)
+            s.header.frame_id = "laser"
+            s.angle_min, s.angle_max, s.angle_increment = amin, -amin, inc
+            s.time_increment, s.scan_time, s.range_min, s.range_max = 9.765625e-05, 0.1, 0.02, 5.6
+            ranges = []
+            for i in range(n):
+                a = amin + i * inc
+                dz = math.cos(a) * math.sin(th)  # the beam's downward component
+                t = oz / dz if dz > 1e-6 else float("inf")
+                ranges.append(t if t <= 5.6 else float("inf"))
+            s.ranges = ranges
+            m.stepAngle = deg
+            bag.write("/slice", m, s.header.stamp)
+
+
+def run(*args):
+    r = subprocess.run(list(args), capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return r.stdout
+
+
+def test_a_stand_over_a_floor_gives_the_floor_at_zero(tmp_path):
+    src, out = str(tmp_path / "stand.bag"), str(tmp_path / "stand_tlp.bag")
+    stand_bag(src)
+    text = run(sys.executable, IMPORT, src, out)
+    assert "121 scans (681 beams)" in text and "tilt 10.00..60.00 deg" in text, text
+    import rosbag
+    with rosbag.Bag(out) as bag:
+        info = bag.get_type_and_topic_info().topics
+        assert info["/scan"].message_count == 121
+        assert info["/joint_states"].message_count >= 121 * 9
+        qs = [m.position[0] for _, m, _ in bag.read_messages(topics=["/joint_states"])]
+    assert abs(max(qs) - math.radians(60)) < 1e-9
+    grouped = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--room")
+    m = re.search(r"sweep 0: (\d+) lines", grouped)
+    assert m and int(m.group(1)) >= 95, grouped  # the scans from 10 to 60 degrees
+    # the largest plane is the floor, horizontal at z = 0 of base_footprint
+    p = re.search(r"plane \d+: \d+ points, [\d.]+ m\^2, normal \(([-\d.]+) ([-\d.]+) ([-\d.]+)\), offset ([-\d.]+) m",
+                  grouped)
+    assert p, grouped
+    assert abs(abs(float(p.group(3))) - 1.0) < 1e-3 and abs(float(p.group(4))) < 0.005, grouped
+    f = re.search(r"floor at z=([-\d.]+) m: (\d+) points, ([\d.]+) % in plane", grouped)
+    assert f and abs(float(f.group(1))) < 0.01 and float(f.group(3)) > 99.0, grouped
+
+
+def test_messages_without_the_fields_are_refused(tmp_path):
+    src = str(tmp_path / "empty.bag")
+    import rosbag
+    from std_msgs.msg import String
+    with rosbag.Bag(src, "w") as bag:
+        bag.write("/slice", String("no scan here"))
+    r = subprocess.run([sys.executable, IMPORT, src, str(tmp_path / "out.bag")], capture_output=True, text=True)
+    assert r.returncode != 0 and "no message with fields" in r.stderr, r.stderr
+
+
+@pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "room_240.bag")),
+                    reason="../shared/data/real/tilting_lidar_scanner is absent: the real recording is skipped")
+def test_room_240_imports_and_groups(tmp_path):
+    out = str(tmp_path / "room_240_tlp.bag")
+    text = run(sys.executable, IMPORT, os.path.join(SHARED, "room_240.bag"), out)
+    assert "865 scans (681 beams)" in text and "tilt 0.08..60.00 deg" in text, text
+    grouped = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--room")
+    m = re.search(r"sweep 0: (\d+) lines, (\d+) planes", grouped)
+    assert m and int(m.group(1)) >= 790 and int(m.group(2)) >= 3, grouped
