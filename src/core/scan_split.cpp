@@ -195,19 +195,16 @@ ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
 
 void ScanSplitter::markVeils(int n, SplitResult& out) {
   // Beam i is a veil point when the steps to both neighbours run along its
-  // ray, one outwards and one inwards: |dr| > cot(angle) * lateral step.
-  const double cot = 1.0 / std::tan(params_.veil_angle_deg * M_PI / 180.0);
-  const auto along = [&](int i, int j) {  // the step from beam i to its neighbour j lies along i's ray
-    const double dr = r_[j] - r_[i];
-    const double lateral = std::abs(x_[j] * sin_[i] - y_[j] * cos_[i]);  // j's distance from i's ray
-    return std::abs(dr) > cot * lateral;
-  };
+  // ray, one outwards and one inwards: |dr| > cot(angle) * lateral step,
+  // where a neighbour's distance from i's ray is its range * sin(increment).
+  const double c = std::abs(std::sin(trig_increment_)) / std::tan(params_.veil_angle_deg * M_PI / 180.0);
+  const auto along = [&](int i, int j) { return std::abs(r_[j] - r_[i]) > c * r_[j]; };
   const double nan = std::numeric_limits<double>::quiet_NaN();
   int i = 1;
   while (i + 1 < n) {
     const auto veil = [&](int k) {
-      return k > 0 && k + 1 < n && valid_[k - 1] && valid_[k] && valid_[k + 1] &&
-             (r_[k - 1] - r_[k]) * (r_[k + 1] - r_[k]) < 0.0 && along(k, k - 1) && along(k, k + 1);
+      return k > 0 && k + 1 < n && valid_[k - 1] && valid_[k] && valid_[k + 1] && along(k, k - 1) &&
+             along(k, k + 1) && (r_[k - 1] - r_[k]) * (r_[k + 1] - r_[k]) < 0.0;
     };
     if (!veil(i)) {
       ++i;
