@@ -30,8 +30,19 @@ constexpr double kMinCutVotes = 4.0;
 /// the same face (a riser), not a corner (short pieces at a box's corner
 /// span small tilted planes).
 constexpr double kMinLoneCover = 0.8;
+/// Two planes are one surface when the plane of their union fits each of
+/// them with an rms within this fraction of the distance threshold.
+constexpr double kUnionRms = 0.75;
 
 /// Area of a polygon given in the plane (u, v) coordinates of a fit.
+/// Rms distance of the points of m to the plane f [m].
+double rmsAbout(const Moments3& m, const PlaneFit& f) {
+  if (!(m.n > 0.0)) return 0.0;
+  const Eigen::Vector3d& n = f.normal;
+  const double e = n.dot(m.ss * n) / m.n - 2.0 * f.offset * n.dot(m.s) / m.n + f.offset * f.offset;
+  return std::sqrt(std::max(0.0, e));
+}
+
 double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
   if (poly.size() < 3) return 0.0;
   const Eigen::Vector3d u = f.normal.unitOrthogonal();
@@ -214,13 +225,16 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) co
 }
 
 bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
-  if (std::abs(a.fit.normal.dot(b.fit.normal)) < std::cos(p_.merge_angle_deg * kDeg)) return false;
+  // One surface when the plane of their union explains each of them: every
+  // part's rms about it within the tolerance. Not their normals: a plane
+  // fitted to a narrow strip of lines has an uncertain one (the lines of a
+  // real rig are offset from each other by encoder steps, backlash, timing).
   const double thr = p_.threshold(std::min((a.fit.centroid - sensor_).norm(), (b.fit.centroid - sensor_).norm()));
-  if (std::abs(a.fit.normal.dot(b.fit.centroid) - a.fit.offset) > thr) return false;
-  if (std::abs(b.fit.normal.dot(a.fit.centroid) - b.fit.offset) > thr) return false;
   Moments3 m = a.moments;
   m += b.moments;
-  return fitPlane(m).rms < 0.5 * thr;
+  const PlaneFit f = fitPlane(m);
+  const double tol = kUnionRms * thr;
+  return rmsAbout(a.moments, f) < tol && rmsAbout(b.moments, f) < tol;
 }
 
 void ScanLineGrouper::addMember(int region, int si) {
