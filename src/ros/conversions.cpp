@@ -23,6 +23,19 @@ core::ScanView toScanView(const sensor_msgs::LaserScan& scan) {
   return v;
 }
 
+core::LineInput toLineInput(const sensor_msgs::LaserScan& scan) {
+  core::LineInput in;
+  in.ranges = scan.ranges;
+  if (scan.intensities.size() == scan.ranges.size()) in.intensities = scan.intensities;
+  in.angle_min = scan.angle_min;
+  in.angle_increment = scan.angle_increment;
+  in.range_min = scan.range_min;
+  in.range_max = scan.range_max;
+  in.stamp = scan.header.stamp.toSec();
+  in.time_increment = scan.time_increment;
+  return in;
+}
+
 namespace {
 // Warm and green hues only (no blue: that is the height map's).
 const float planePalette[8][3] = {{0.95f, 0.55f, 0.10f}, {0.95f, 0.85f, 0.20f}, {0.85f, 0.20f, 0.15f},

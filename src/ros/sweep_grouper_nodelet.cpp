@@ -273,15 +273,7 @@ void SweepGrouperNodelet::onScan(const sensor_msgs::LaserScanConstPtr& scan, con
   if (!scan->header.frame_id.empty() && scan->header.frame_id != laser_frame_)
     warn("scan frame '" + scan->header.frame_id + "' is not ~laser_frame '" + laser_frame_ + "': using the URDF chain to '" +
          laser_frame_ + "'");
-  core::LineInput in;
-  in.ranges = scan->ranges;
-  if (scan->intensities.size() == scan->ranges.size()) in.intensities = scan->intensities;  // else left out
-  in.angle_min = scan->angle_min;
-  in.angle_increment = scan->angle_increment;
-  in.range_min = scan->range_min;
-  in.range_max = scan->range_max;
-  in.stamp = scan->header.stamp.toSec();
-  in.time_increment = scan->time_increment;
+  core::LineInput in = toLineInput(*scan);
   for (const auto& s : segs->segments) in.segments.emplace_back(static_cast<int>(s.first_index), static_cast<int>(s.last_index));
   for (std::size_t i = 0; i < segs->edge_indices.size() && i < segs->edge_kinds.size(); ++i)
     in.edges.emplace_back(static_cast<int>(segs->edge_indices[i]), static_cast<core::EdgeKind>(segs->edge_kinds[i]));

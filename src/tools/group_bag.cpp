@@ -202,14 +202,7 @@ int main(int argc, char** argv) {
     } else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>()) {
       ++scans;
       if (splitter.split(toScanView(*scan), split) != core::ScanError::None) continue;
-      core::LineInput in;
-      in.ranges = scan->ranges;
-      in.angle_min = scan->angle_min;
-      in.angle_increment = scan->angle_increment;
-      in.range_min = scan->range_min;
-      in.range_max = scan->range_max;
-      in.stamp = scan->header.stamp.toSec();
-      in.time_increment = scan->time_increment;
+      core::LineInput in = toLineInput(*scan);
       for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
       for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
       assembler.addLine(std::move(in), last);

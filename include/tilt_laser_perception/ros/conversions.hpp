@@ -9,12 +9,16 @@
 
 #include "tilt_laser_perception/ScanSegments.h"
 #include "tilt_laser_perception/core/scan_split.hpp"
+#include "tilt_laser_perception/core/sweep.hpp"
 
 namespace tilt_laser_perception {
 
 /// A view of a LaserScan for the splitter (points into the message). Intensities of
 /// another length than the ranges are left out (the ranges are kept).
 core::ScanView toScanView(const sensor_msgs::LaserScan& scan);
+/// A scan's fields as the sweep assembler takes them (its segments and edges
+/// left to the caller); intensities of another length than the ranges are left out.
+core::LineInput toLineInput(const sensor_msgs::LaserScan& scan);
 
 /// Fills a ScanSegments message from a split result (header copied as given).
 void toMsg(const core::SplitResult& result, const core::SplitParams& params, const std_msgs::Header& header,
