@@ -225,11 +225,23 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) co
 }
 
 bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
-  // One surface when the plane of their union explains each of them: every
-  // part's rms about it within the tolerance. Not their normals: a plane
-  // fitted to a narrow strip of lines has an uncertain one (the lines of a
-  // real rig are offset from each other by encoder steps, backlash, timing).
+  // One surface when their normals agree, each one's plane reaches the
+  // other's centroid within what its width leaves uncertain, and the plane
+  // of their union explains each of them (every part's rms about it within
+  // the tolerance). A plane fitted to a narrow strip of lines has an
+  // uncertain normal (a real rig's lines are offset from each other by
+  // encoder steps, backlash, timing: a strip of width w whose lines lie
+  // within +-thr of one surface may tilt by atan(2 thr / w)), so it is
+  // judged by its fit with the other, not by extrapolating it.
   const double thr = p_.threshold(std::min((a.fit.centroid - sensor_).norm(), (b.fit.centroid - sensor_).norm()));
+  if (std::abs(a.fit.normal.dot(b.fit.normal)) < std::cos(p_.merge_angle_deg * kDeg)) return false;
+  const auto slack = [&](const Region& r) {
+    const double width = std::sqrt(12.0) * r.fit.spread(1);  // across its lines, for points spread evenly
+    return width > 0.0 ? 2.0 * thr / width : 1e3;             // tan of the tilt it leaves uncertain
+  };
+  const double apart = (a.fit.centroid - b.fit.centroid).norm();
+  if (std::abs(a.fit.normal.dot(b.fit.centroid) - a.fit.offset) > thr + apart * slack(a)) return false;
+  if (std::abs(b.fit.normal.dot(a.fit.centroid) - b.fit.offset) > thr + apart * slack(b)) return false;
   Moments3 m = a.moments;
   m += b.moments;
   const PlaneFit f = fitPlane(m);

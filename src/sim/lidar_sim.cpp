@@ -43,13 +43,15 @@ LidarSimulator::LidarSimulator(const Scene& scene, const LidarModel& model, cons
 
 template <typename Dir>
 double LidarSimulator::footprintRange(const Eigen::Vector3d& o, const Dir& dirAt, double a, double w,
-                                      double cos_grazing) const {
+                                      double cos_grazing, bool& several_faces) const {
   // Sub-rays across the footprint with a Gaussian profile (its edges at 2
   // sigma); each returns power ~ reflectivity * cos(incidence) / range^2
   // (an extended target filling its share of the footprint) when it is
   // detectable at all.
   constexpr int kRays = 11;
   double sw = 0.0, swr = 0.0;
+  int first_face = -1;
+  several_faces = false;
   for (int k = 0; k < kRays; ++k) {
     const double u = -1.0 + 2.0 * k / (kRays - 1);  // -1..1 across the footprint
     Hit h;
@@ -57,6 +59,8 @@ double LidarSimulator::footprintRange(const Eigen::Vector3d& o, const Dir& dirAt
     const double refl = scene_.faces[h.face].reflectivity;
     if (h.t > model_.max_detect_range * refl || h.cos_incidence < cos_grazing) continue;
     const double weight = std::exp(-2.0 * u * u) * refl * h.cos_incidence / (h.t * h.t);
+    if (first_face < 0) first_face = h.face;
+    several_faces = several_faces || h.face != first_face;
     sw += weight;
     swr += weight * h.t;
   }
@@ -102,9 +106,10 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
       const bool b1 = scene_.raycast(o, dirAt(a - w), model_.max_detect_range, h1);
       const bool b2 = scene_.raycast(o, dirAt(a + w), model_.max_detect_range, h2);
       if (!b1 || !b2 || std::abs(h1.t - hit.t) > 0.02 || std::abs(h2.t - hit.t) > 0.02) {
-        r = footprintRange(o, dirAt, a, w, cos_grazing);
+        bool faces = false;
+        r = footprintRange(o, dirAt, a, w, cos_grazing, faces);
         if (!std::isfinite(r)) continue;
-        out.mixed[i] = std::abs(r - hit.t) > 0.03;
+        out.mixed[i] = faces && std::abs(r - hit.t) > 0.03;  // between surfaces (not along one at grazing incidence)
       }
     } else if (noise_.mixed_pixel_probability > 0.0) {
       // The beam's footprint reaches half a step either side: where it
@@ -114,7 +119,7 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
       const bool b2 = scene_.raycast(o, dirAt(a + half), model_.max_detect_range, h2);
       if (b1 && b2 && std::abs(h1.t - h2.t) > 0.05 && uni(rng_) < noise_.mixed_pixel_probability) {
         r = h1.t + uni(rng_) * (h2.t - h1.t);
-        out.mixed[i] = 1;
+        out.mixed[i] = h1.face != h2.face;  // between surfaces (not along one at grazing incidence)
       }
     }
     r += noise_.sigma(r) * gauss(rng_);

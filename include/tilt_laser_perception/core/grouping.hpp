@@ -47,7 +47,7 @@ struct GroupingParams {
   double centroid_min = 0.012;    ///< a segment's centroid must lie this close to the plane [m] ...
   double centroid_ratio = 0.005;  ///< ... plus this much of its range [1] (a fitted line is far less noisy than its points)
   double angle_deg = 12.0;        ///< a segment may leave its plane by this much [deg]
-  double merge_angle_deg = 15.0;  ///< a crease cut's new plane must be this far from the one it is cut from [deg] (planes merge by how well their union fits each, not by their normals)
+  double merge_angle_deg = 15.0;  ///< planes whose normals differ by less may merge (if their union fits each of them); a crease cut's new plane differs by more [deg]
   double seed_gap = 0.25;         ///< largest distance between the segments that seed a plane [m] (+ 5 % of range)
   int beam_slack = 8;             ///< beam index slack for overlap between adjacent lines
   int max_line_gap = 2;           ///< a plane stays open this many lines without a new segment

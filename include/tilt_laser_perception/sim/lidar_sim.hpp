@@ -81,7 +81,7 @@ struct SimScan {
   std::vector<float> intensities;     ///< arbitrary units
   std::vector<float> true_ranges;     ///< noise-free range of the centre ray [m]; NaN: nothing hit
   std::vector<int> face;              ///< face hit by the centre ray; -1 none
-  std::vector<unsigned char> mixed;   ///< 1 where the return is a mixed pixel
+  std::vector<unsigned char> mixed;   ///< 1 where the return is a mixed pixel: a range between two faces
   std::vector<TrueEdge> edges;        ///< true edges, in beam order
 
   /// View for the splitter (points into this object).
@@ -108,8 +108,10 @@ class LidarSimulator {
 
  private:
   /// The power-weighted mean range over a footprint of half-width w about angle a; NaN: no return.
+  /// several_faces: the returns came from more than one face.
   template <typename Dir>
-  double footprintRange(const Eigen::Vector3d& o, const Dir& dirAt, double a, double w, double cos_grazing) const;
+  double footprintRange(const Eigen::Vector3d& o, const Dir& dirAt, double a, double w, double cos_grazing,
+                        bool& several_faces) const;
   const Scene& scene_;
   LidarModel model_;
   NoiseParams noise_;
