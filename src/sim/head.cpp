@@ -152,11 +152,6 @@ HeadGeometry HeadGeometry::load(const std::string& path) {
   return g;
 }
 
-bool RigErrors::any() const {
-  return tilt_noise != 0.0 || quantize || backlash != 0.0 || time_offset != 0.0 || line_jitter != 0.0 ||
-         joint_offset != 0.0 || mount_roll != 0.0 || mount_yaw != 0.0;
-}
-
 Eigen::Isometry3d RigErrors::mount() const {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.rotate(Eigen::AngleAxisd(mount_yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(mount_roll, Eigen::Vector3d::UnitX()));

@@ -85,7 +85,6 @@ struct RigErrors {
   double mount_roll = 0.0;    ///< laser rotated about its own x axis on the tilt link [rad]
   double mount_yaw = 0.0;     ///< laser rotated about its own z axis on the tilt link [rad]
 
-  bool any() const;
   /// Rotation of the laser's mount error (yaw about z, then roll about x).
   Eigen::Isometry3d mount() const;
 };
