@@ -15,7 +15,8 @@ add_library(tlp_core
   ${TLP_ROOT}/src/core/sweep.cpp
   ${TLP_ROOT}/src/core/height_map.cpp
   ${TLP_ROOT}/src/core/polyline_split.cpp
-  ${TLP_ROOT}/src/core/input_check.cpp)
+  ${TLP_ROOT}/src/core/input_check.cpp
+  ${TLP_ROOT}/src/core/calibration.cpp)
 # `#pragma omp simd` loops (no OpenMP runtime): the per-beam transforms.
 target_compile_options(tlp_core PRIVATE -fopenmp-simd)
 

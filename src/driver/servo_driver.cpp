@@ -1,5 +1,7 @@
 #include "tilt_laser_perception/driver/servo_driver.hpp"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -142,6 +144,7 @@ dynamixel::TxResult ServoDriver::readState(JointSample& s, std::uint8_t& error_b
   }
   if (r != TxResult::Ok) return r;
   s.stamp = 0.5 * (t0 + t1);
+  s.round_trip = t1 - t0;
   if (v1) {
     const double pos = dynamixel::positionToRad(static_cast<std::int32_t>(dynamixel::getLE(d.data(), 2)));
     s.position = toJoint(pos);
@@ -218,6 +221,8 @@ void ServoDriver::run() {
   int failures = 0, corrupt = 0;
   double next = dynamixel::monotonicNow();
   double next_health = 0.0;
+  std::array<double, 64> round_trips{};
+  std::size_t n_round_trips = 0;
   const double period = 1.0 / std::max(1.0, opt_.rate);
   const auto& tab = dynamixel::mx64Table(opt_.protocol);
   while (running_) {
@@ -264,12 +269,17 @@ void ServoDriver::run() {
       continue;
     }
     failures = corrupt = 0;
+    round_trips[n_round_trips++ % round_trips.size()] = s.round_trip;
+    const double shortest = *std::min_element(round_trips.begin(),
+                                              round_trips.begin() + std::min(n_round_trips, round_trips.size()));
+    const bool late = s.round_trip > shortest + 2.0 * opt_.max_stamp_uncertainty;
     {
       std::lock_guard<std::mutex> l(status_mutex_);
       ++status_.samples;
+      status_.late_reads += late;
       status_.effort = s.effort;
     }
-    if (on_joint_) on_joint_(s);
+    if (on_joint_ && !late) on_joint_(s);
 
     const double now = dynamixel::monotonicNow();
     const bool alert = opt_.protocol == Protocol::V1 ? (err & 0x25) != 0 : (err & 0x80) != 0;

@@ -60,6 +60,7 @@ void TiltLaserDriverNodelet::onInit() {
   pnh.param("servo_protocol", protocol, 2);
   pnh.param("publish_rate", so.rate, 200.0);
   pnh.param("joint_offset", so.joint_offset, 0.0);
+  pnh.param("max_stamp_uncertainty", so.max_stamp_uncertainty, 0.001);
   pnh.param("joint_direction", direction, 1);
   pnh.param<std::string>("joint_name", joint_name_, "head_tilt_joint");
   std::string mode;
@@ -263,6 +264,7 @@ void TiltLaserDriverNodelet::diagnoseServo(diagnostic_updater::DiagnosticStatusW
   stat.add("port reopens", s.reopens);
   stat.add("torque restores", s.torque_restores);
   stat.add("joint states", s.samples);
+  stat.add("joint reads not published (late reply, stamp uncertain)", s.late_reads);
   stat.add("sweeps", s.sweeps);
   stat.add("sweeps dropped", s.aborted_sweeps);
   stat.add("last error", s.last_error);

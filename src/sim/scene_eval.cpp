@@ -15,7 +15,9 @@ namespace sim {
 namespace {
 double cpuNow() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
-core::TiltChain chainOf(const HeadGeometry& g) {
+}  // namespace
+
+core::TiltChain headChain(const HeadGeometry& g) {
   core::TiltChain c;
   c.base_to_joint = Eigen::Isometry3d::Identity();
   c.base_to_joint.translation() = g.axis_origin;
@@ -25,6 +27,8 @@ core::TiltChain chainOf(const HeadGeometry& g) {
   c.joint_to_laser.translation() = g.laser_offset;
   return c;
 }
+
+namespace {
 
 struct LineTruth {
   std::vector<int> face;
@@ -177,7 +181,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   SweepController sweep(servo, o.profile);
   HeadSimulator head_sim(scene, head, servo, o.noise, o.seed, LidarModel(), o.rig);
   const LidarModel& m = head_sim.model();
-  core::SweepAssembler assembler(o.sweep, chainOf(head));
+  core::SweepAssembler assembler(o.sweep, o.calibration.correct(headChain(head)));
   core::ScanSplitter splitter(o.split);
   core::SplitResult split;
   HeadScan hs;
@@ -194,6 +198,8 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
     if (t + 1e-9 >= next_joint) {
       double q = servo.reading(t);
       if (o.quantize_joint) q = dynamixel::positionToRad(dynamixel::radToPosition(q));
+      q += o.calibration.joint_offset;
+      if (o.on_joint) o.on_joint(t, q);
       assembler.addJoint(t, q);
       next_joint += joint_period;
     }
@@ -208,7 +214,8 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
       in.angle_increment = m.angle_increment;
       in.range_min = m.range_min;
       in.range_max = m.range_max;
-      in.stamp = next_scan;
+      const double stamp = next_scan - o.calibration.time_offset;
+      in.stamp = stamp;
       in.time_increment = m.timeIncrement();
       for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
       for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
@@ -219,13 +226,14 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
         lt.veil_segments += 2 * mixed > s.count;
         lt.overhanging += core::segmentOverhang(hs.scan.view(), s) > 0.01;
       }
-      truth[next_scan] = std::move(lt);
-      split_time[next_scan] = st;
+      truth[stamp] = std::move(lt);
+      split_time[stamp] = st;
       assembler.addLine(std::move(in), t);
       next_scan += m.scan_period;
     }
     core::SweepResult done;
     while (assembler.poll(t, done)) {
+      if (o.on_sweep) o.on_sweep(done);
       out.push_back(judge(scene, truth_h, done, truth, split_time, o, done.finish_seconds, grid));
       // Forget the truth of lines before this sweep.
       truth.erase(truth.begin(), truth.lower_bound(done.start));

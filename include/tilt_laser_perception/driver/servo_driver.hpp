@@ -35,6 +35,11 @@ struct ServoDriverOptions {
   double recover_after = 1.0;     ///< a shutdown by a hardware error is cleared after this long [s]
   double joint_offset = 0.0;      ///< joint angle at the servo's centre [rad]
   int direction = 1;              ///< +1 or -1: joint angle = direction * servo angle + offset
+  /// A read whose round trip exceeds the shortest of the last 64 by more than
+  /// twice this is not published: its stamp (the midpoint) is that uncertain,
+  /// since the thread or the line was held up somewhere between request and
+  /// reply (the position is still used to drive the profile) [s].
+  double max_stamp_uncertainty = 0.001;
   core::TiltProfileParams profile;
 };
 
@@ -44,6 +49,7 @@ struct JointSample {
   double position = 0.0;  ///< joint angle [rad]
   double velocity = 0.0;  ///< [rad/s]
   double effort = 0.0;    ///< load as a fraction of the maximum torque (1.0), or current [A] (2.0)
+  double round_trip = 0.0;  ///< from request to reply [s]
 };
 
 /// A snapshot for diagnostics.
@@ -56,6 +62,7 @@ struct ServoStatus {
   dynamixel::BusCounters bus;
   unsigned long reopens = 0, hardware_error_events = 0, samples = 0, sweeps = 0, aborted_sweeps = 0;
   unsigned long torque_restores = 0;  ///< torque found off with no hardware error and switched on again
+  unsigned long late_reads = 0;       ///< reads not published: their round trip made the stamp uncertain
   std::string last_error;
 };
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "tilt_laser_perception/core/calibration.hpp"
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/sim/head.hpp"
 
@@ -32,6 +33,9 @@ struct SceneEvalOptions {
   double heightmap_radius = 3.0;        ///< cells farther than this are not judged [m]
   NoiseParams noise;
   RigErrors rig;                        ///< the rig's errors (none by default)
+  /// Applied to the believed geometry as the launch files apply calibrate's
+  /// output: joint readings + joint_offset, scan stamps - time_offset, the mount on the laser.
+  core::HeadCalibration calibration;
   core::SplitParams split;
   core::SweepParams sweep;
   core::HeightMapParams heightmap;
@@ -43,7 +47,14 @@ struct SceneEvalOptions {
   /// and centroid used). Its time goes to SweepEval::external_ms.
   std::function<void(const core::SweepResult&, std::vector<std::vector<int>>& labels, std::vector<core::Plane>& planes)>
       segmenter;
+  /// Called with every joint reading (as the assembler takes it) and every
+  /// finished sweep (before it is judged): for the calibration's tests and benchmark.
+  std::function<void(double t, double q)> on_joint;
+  std::function<void(const core::SweepResult&)> on_sweep;
 };
+
+/// The assembler's chain for a head geometry (base_footprint -> tilt joint -> laser).
+core::TiltChain headChain(const HeadGeometry& g);
 
 /// Writes a sweep's planes (PREFIX_planes.csv: one row per plane, then its
 /// boundary vertices) and height map (PREFIX_heightmap.bin: float32 heights,

@@ -1,0 +1,119 @@
+/**
+ * @file calibration.hpp
+ * @brief The head calibrates itself: the tilt joint's zero offset, the
+ *        servo-to-laser time offset and the laser's roll and yaw on the tilt
+ *        link, estimated from a few sweeps of a standing robot by making the
+ *        sweeps' planes as flat as they can be, the same surface agree between
+ *        the up and the down sweeps, and the floor horizontal at z = 0.
+ *        ROS-free; time [s], angles [rad], lengths [m].
+ *
+ * The model of a beam i of a line stamped t (the assembler's, with the four
+ * corrections): p = base_to_joint * R(axis, q(t + i dt - time_offset) +
+ * joint_offset) * joint_to_laser * mount(yaw, roll) * x_i, q the reported
+ * joint angles interpolated, x_i the beam's point in the laser's frame.
+ * The conventions are those of the simulator's rig errors (sim::RigErrors):
+ * an estimate is the error itself, so applying it corrects the data.
+ *
+ * What a scene cannot tell is reported, not invented: a mount pitch (about
+ * the laser's y axis, parallel to the tilt axis) is the same as a joint zero
+ * offset and is folded into it; without the floor, a joint offset rotates
+ * every point about the tilt axis and leaves every plane flat; at one tilt
+ * speed, a gear play b looks like a time offset of b / (2 speed) (what the
+ * pipeline needs at that speed). A parameter whose standard error exceeds
+ * CalibrationOptions::max_standard_error is held at zero and said so.
+ */
+#pragma once
+
+#include <array>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tilt_laser_perception/core/sweep.hpp"
+
+namespace tilt_laser_perception {
+namespace core {
+
+/// The head's departures from its believed geometry (all zero: as believed).
+struct HeadCalibration {
+  double joint_offset = 0.0;  ///< true tilt minus the reported one [rad]
+  double time_offset = 0.0;   ///< a scan's stamp minus the true time of its beam 0 [s] (positive: stamped late)
+  double mount_roll = 0.0;    ///< laser rotated about its own x axis on the tilt link [rad]
+  double mount_yaw = 0.0;     ///< laser rotated about its own z axis on the tilt link [rad]
+
+  static constexpr int kParams = 4;
+  double& operator[](int k);
+  double operator[](int k) const;
+  static const char* name(int k);  ///< "joint_offset", "time_offset", "mount_roll", "mount_yaw"
+  /// The mount's rotation (yaw about z, then roll about x).
+  Eigen::Isometry3d mount() const;
+  /// The chain with the mount applied (joint_to_laser * mount()).
+  TiltChain correct(const TiltChain& chain) const;
+};
+
+struct CalibrationOptions {
+  std::array<bool, HeadCalibration::kParams> estimate{{true, true, true, true}};  ///< which to estimate
+  bool floor = true;                ///< the robot stands on a flat floor at z = 0 of the assembly frame
+  double floor_angle_deg = 10.0;    ///< a plane this close to horizontal ...
+  double floor_height = 0.15;       ///< ... and this close to z = 0 is the floor [m]
+  int min_plane_points = 300;       ///< smaller planes are not used
+  int max_points_per_plane = 2000;  ///< larger ones are subsampled evenly
+  double merge_angle_deg = 3.0;     ///< one surface in two sweeps: normals this close ...
+  double merge_distance = 0.03;     ///< ... and each centroid this close to the other's plane [m]
+  double trim_sigma = 3.0;          ///< points farther from their plane than this many rms are outliers
+  int max_iterations = 30;
+  /// A parameter with a larger standard error is not observable here: held at zero [rad, s].
+  std::array<double, HeadCalibration::kParams> max_standard_error{{0.1 * M_PI / 180.0, 0.002, 0.2 * M_PI / 180.0,
+                                                                   0.2 * M_PI / 180.0}};
+  /// Empty when valid, else a message naming the option.
+  std::string validate() const;
+};
+
+struct CalibrationResult {
+  bool ok = false;                  ///< false: too little data (why in notes)
+  HeadCalibration calibration;      ///< the estimate (held parameters zero)
+  HeadCalibration standard_error;   ///< formal standard errors (from the residuals' scatter; beams taken as independent)
+  std::array<bool, HeadCalibration::kParams> estimated{};  ///< false: not asked for, or not observable (notes say which)
+  std::vector<std::string> notes;   ///< what the data could and could not tell
+  double rms_before = 0.0;          ///< point-to-plane rms with the believed geometry [m]
+  double rms_after = 0.0;           ///< with the estimate [m]
+  int sweeps = 0, up_sweeps = 0, surfaces = 0, points = 0, floor_points = 0, iterations = 0;
+};
+
+/// Collects a recording's sweeps (as the assembler made them with the
+/// believed geometry) and its joint states, then estimates the calibration.
+/// The chain's base must stand still in the assembly frame (a standing robot).
+class HeadCalibrator {
+ public:
+  explicit HeadCalibrator(const TiltChain& chain, const CalibrationOptions& options = CalibrationOptions());
+  /// The reported joint angles, in time order (others are dropped).
+  void addJoint(double t, double q);
+  /// A sweep: its planes' points are kept (in the laser's frame, with their times).
+  void addSweep(const SweepResult& sweep);
+  int sweeps() const { return sweeps_; }
+  CalibrationResult solve() const;
+
+  /// One line: "joint_offset_deg=... time_offset_ms=... mount_roll_deg=...
+  /// mount_yaw_deg=... plane_rms_before_m=... plane_rms_after_m=..." and the
+  /// standard errors (…_se=), "held" for a parameter not estimated.
+  static std::string summary(const CalibrationResult& r);
+
+ private:
+  struct Sample {
+    Eigen::Vector3d x;  ///< in the laser's frame [m]
+    double t;           ///< the beam's stamped time [s]
+  };
+  struct Patch {        ///< one plane of one sweep
+    std::vector<Sample> samples;
+    int sweep = 0;
+    int direction = 0;  ///< +1 tilting up (q increasing), -1 down
+  };
+  TiltChain chain_;
+  CalibrationOptions o_;
+  std::vector<std::pair<double, double>> joints_;
+  std::vector<Patch> patches_;
+  int sweeps_ = 0;
+};
+
+}  // namespace core
+}  // namespace tilt_laser_perception

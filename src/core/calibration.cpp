@@ -1,0 +1,505 @@
+#include "tilt_laser_perception/core/calibration.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include <Eigen/Eigenvalues>
+
+namespace tilt_laser_perception {
+namespace core {
+
+namespace {
+constexpr double kDeg = M_PI / 180.0;
+}  // namespace
+
+double& HeadCalibration::operator[](int k) {
+  return k == 0 ? joint_offset : k == 1 ? time_offset : k == 2 ? mount_roll : mount_yaw;
+}
+double HeadCalibration::operator[](int k) const { return const_cast<HeadCalibration&>(*this)[k]; }
+const char* HeadCalibration::name(int k) {
+  static const char* names[kParams] = {"joint_offset", "time_offset", "mount_roll", "mount_yaw"};
+  return names[k];
+}
+
+Eigen::Isometry3d HeadCalibration::mount() const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.rotate(Eigen::AngleAxisd(mount_yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(mount_roll, Eigen::Vector3d::UnitX()));
+  return T;
+}
+
+TiltChain HeadCalibration::correct(const TiltChain& chain) const {
+  TiltChain c = chain;
+  c.joint_to_laser = chain.joint_to_laser * mount();
+  return c;
+}
+
+std::string CalibrationOptions::validate() const {
+  if (!(floor_angle_deg > 0.0 && floor_angle_deg < 45.0)) return "floor_angle_deg must be in (0, 45)";
+  if (!(floor_height > 0.0)) return "floor_height must be > 0";
+  if (min_plane_points < 10) return "min_plane_points must be >= 10";
+  if (max_points_per_plane < min_plane_points) return "max_points_per_plane must be >= min_plane_points";
+  if (!(merge_angle_deg > 0.0 && merge_distance > 0.0)) return "merge_angle_deg and merge_distance must be > 0";
+  if (!(trim_sigma >= 2.0)) return "trim_sigma must be >= 2";
+  if (max_iterations < 1) return "max_iterations must be >= 1";
+  return "";
+}
+
+HeadCalibrator::HeadCalibrator(const TiltChain& chain, const CalibrationOptions& options) : chain_(chain), o_(options) {}
+
+void HeadCalibrator::addJoint(double t, double q) {
+  if (!std::isfinite(t) || !std::isfinite(q)) return;
+  if (!joints_.empty() && t <= joints_.back().first) return;
+  joints_.emplace_back(t, q);
+}
+
+void HeadCalibrator::addSweep(const SweepResult& sw) {
+  if (sw.lines.size() < 2) return;
+  const auto& a = sw.lines.front().tilt;
+  const auto& b = sw.lines.back().tilt;
+  if (a.empty() || b.empty()) return;
+  const int direction = b[b.size() / 2] > a[a.size() / 2] ? 1 : -1;
+  std::vector<int> patch_of_plane(sw.planes.size(), -1);
+  for (std::size_t k = 0; k < sw.planes.size(); ++k) {
+    if (sw.planes[k].points < o_.min_plane_points) continue;
+    patch_of_plane[k] = static_cast<int>(patches_.size());
+    patches_.push_back(Patch{{}, sweeps_, direction});
+  }
+  for (std::size_t si = 0; si < sw.segments.size() && si < sw.segment_plane.size(); ++si) {
+    const int pl = sw.segment_plane[si];
+    if (pl < 0 || pl >= static_cast<int>(patch_of_plane.size()) || patch_of_plane[pl] < 0) continue;
+    const Segment3& s = sw.segments[si];
+    const SweepLine& line = sw.lines[s.line];
+    Patch& patch = patches_[patch_of_plane[pl]];
+    for (int i = s.first; i <= s.last && i < static_cast<int>(line.points.size()); ++i) {
+      const Eigen::Vector3f& p = line.points[i];
+      if (!p.allFinite() || i >= static_cast<int>(line.tilt.size())) continue;
+      const Eigen::Vector3d x = chain_.laserPose(line.tilt[i]).inverse() * p.cast<double>();
+      patch.samples.push_back(Sample{x, line.stamp + i * line.time_increment});
+    }
+  }
+  // Subsample evenly: the solve's cost is in the points, and a plane of 2000 is well fixed.
+  for (int k : patch_of_plane) {
+    if (k < 0) continue;
+    auto& s = patches_[k].samples;
+    if (static_cast<int>(s.size()) <= o_.max_points_per_plane) continue;
+    std::vector<Sample> kept;
+    kept.reserve(o_.max_points_per_plane);
+    const double stride = static_cast<double>(s.size()) / o_.max_points_per_plane;
+    for (int j = 0; j < o_.max_points_per_plane; ++j) kept.push_back(s[static_cast<std::size_t>(j * stride)]);
+    s = std::move(kept);
+  }
+  ++sweeps_;
+}
+
+namespace {
+
+/// The problem as the solver sees it: samples in patches, patches in groups
+/// (one surface; group -1 the floor, fixed at z = 0), and which samples count.
+struct Problem {
+  struct Point {
+    Eigen::Vector3d x;
+    double t;
+    int group;
+  };
+  std::vector<Point> points;
+  std::vector<char> active;
+  int groups = 0;
+  std::vector<Eigen::Vector3d> ref_normal;  // per group: the sign of its normal
+  TiltChain chain;
+  const std::vector<std::pair<double, double>>* joints = nullptr;
+
+  /// The reported joint angle at t, hinted by the index of the last look-up; false outside the record.
+  bool jointAt(double t, std::size_t& hint, double& q) const {
+    const auto& j = *joints;
+    if (j.size() < 2 || t < j.front().first || t > j.back().first) return false;
+    if (hint >= j.size() - 1 || j[hint].first > t) hint = 0;
+    if (j[hint + 1].first < t) {
+      // a few steps forward are the usual case; far jumps by binary search
+      std::size_t steps = 0;
+      while (hint + 1 < j.size() - 1 && j[hint + 1].first < t && ++steps < 8) ++hint;
+      if (j[hint + 1].first < t) {
+        const auto it = std::lower_bound(j.begin(), j.end(), t,
+                                         [](const std::pair<double, double>& s, double v) { return s.first < v; });
+        hint = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, (it - j.begin()) - 1));
+      }
+    }
+    const auto& a = j[hint];
+    const auto& b = j[hint + 1];
+    if (b.first - a.first > 0.1) return false;  // a gap in the joint states
+    q = a.second + (t - a.first) * (b.second - a.second) / (b.first - a.first);
+    return true;
+  }
+
+  /// Every active point in 3D with the calibration c; false where its time leaves the joint record.
+  void transform(const HeadCalibration& c, std::vector<Eigen::Vector3d>& out, std::vector<char>& valid) const {
+    const TiltChain ch = c.correct(chain);
+    out.resize(points.size());
+    valid.assign(points.size(), 0);
+    std::size_t hint = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (!active[i]) continue;
+      double q = 0.0;
+      if (!jointAt(points[i].t - c.time_offset, hint, q)) continue;
+      out[i] = ch.laserPose(q + c.joint_offset) * points[i].x;
+      valid[i] = 1;
+    }
+  }
+
+  /// Each group's plane (floor: z = 0) at c: normals and centroids.
+  void planes(const std::vector<Eigen::Vector3d>& p, const std::vector<char>& valid, std::vector<Eigen::Vector3d>& n,
+              std::vector<Eigen::Vector3d>& centroid, std::vector<int>& count) const {
+    std::vector<Eigen::Vector3d> sum(groups, Eigen::Vector3d::Zero());
+    std::vector<Eigen::Matrix3d> outer(groups, Eigen::Matrix3d::Zero());
+    count.assign(groups, 0);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (!valid[i] || points[i].group < 0) continue;
+      const int g = points[i].group;
+      sum[g] += p[i];
+      outer[g] += p[i] * p[i].transpose();
+      ++count[g];
+    }
+    n.assign(groups, Eigen::Vector3d::UnitZ());
+    centroid.assign(groups, Eigen::Vector3d::Zero());
+    for (int g = 0; g < groups; ++g) {
+      if (count[g] < 3) continue;
+      centroid[g] = sum[g] / count[g];
+      const Eigen::Matrix3d cov = outer[g] / count[g] - centroid[g] * centroid[g].transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+      n[g] = es.eigenvectors().col(0);
+      if (g < static_cast<int>(ref_normal.size()) && n[g].dot(ref_normal[g]) < 0.0) n[g] = -n[g];
+    }
+  }
+
+  /// Point-to-plane residuals at c (0 where a point is inactive or invalid), their count and sum of squares.
+  void residuals(const HeadCalibration& c, Eigen::VectorXd& r, int& used, double& ss) const {
+    std::vector<Eigen::Vector3d> p, n, centroid;
+    std::vector<char> valid;
+    std::vector<int> count;
+    transform(c, p, valid);
+    planes(p, valid, n, centroid, count);
+    r.setZero(static_cast<Eigen::Index>(points.size()));
+    used = 0;
+    ss = 0.0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (!valid[i]) continue;
+      const int g = points[i].group;
+      double e;
+      if (g < 0) e = p[i].z();
+      else if (count[g] >= 3) e = n[g].dot(p[i] - centroid[g]);
+      else continue;
+      r[static_cast<Eigen::Index>(i)] = e;
+      ss += e * e;
+      ++used;
+    }
+  }
+
+  void setReferenceNormals(const HeadCalibration& c) {
+    ref_normal.clear();
+    std::vector<Eigen::Vector3d> p, n, centroid;
+    std::vector<char> valid;
+    std::vector<int> count;
+    transform(c, p, valid);
+    planes(p, valid, n, centroid, count);
+    ref_normal = n;
+  }
+};
+
+struct Fit {
+  HeadCalibration c;
+  HeadCalibration se;
+  double rms = 0.0;
+  int used = 0, iterations = 0;
+  bool ok = false;
+};
+
+/// Levenberg-Marquardt over the free parameters, the planes refitted at every
+/// evaluation (variable projection), the Jacobian by central differences.
+Fit solveFree(const Problem& pr, HeadCalibration c, const std::array<bool, HeadCalibration::kParams>& free,
+              int max_iterations) {
+  Fit f;
+  std::vector<int> idx;
+  for (int k = 0; k < HeadCalibration::kParams; ++k)
+    if (free[k]) idx.push_back(k);
+  const int m = static_cast<int>(idx.size());
+  const auto step = [](int) { return 1e-4; };  // 0.1 mrad, 0.1 ms
+  Eigen::VectorXd r;
+  double ss = 0.0;
+  int used = 0;
+  pr.residuals(c, r, used, ss);
+  if (used < 10) return f;
+  double lambda = 1e-3;
+  Eigen::MatrixXd J(r.size(), std::max(1, m));
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(std::max(1, m), std::max(1, m));
+  for (int it = 0; it < max_iterations && m > 0; ++it) {
+    f.iterations = it + 1;
+    for (int j = 0; j < m; ++j) {
+      HeadCalibration a = c, b = c;
+      a[idx[j]] += step(idx[j]);
+      b[idx[j]] -= step(idx[j]);
+      Eigen::VectorXd ra, rb;
+      double sa, sb;
+      int ua, ub;
+      pr.residuals(a, ra, ua, sa);
+      pr.residuals(b, rb, ub, sb);
+      J.col(j) = (ra - rb) / (2.0 * step(idx[j]));
+      // a point valid at one side only (its time at the record's end) counts for neither
+      for (Eigen::Index i = 0; i < r.size(); ++i)
+        if ((ra[i] == 0.0) != (rb[i] == 0.0) || r[i] == 0.0) J(i, j) = 0.0;
+    }
+    H = J.transpose() * J;
+    const Eigen::VectorXd g = J.transpose() * r;
+    bool improved = false;
+    Eigen::VectorXd delta;
+    for (int tries = 0; tries < 10; ++tries) {
+      Eigen::MatrixXd A = H;
+      for (int j = 0; j < m; ++j) A(j, j) += lambda * std::max(H(j, j), 1e-12);
+      delta = -A.ldlt().solve(g);
+      HeadCalibration cn = c;
+      for (int j = 0; j < m; ++j) cn[idx[j]] += delta[j];
+      Eigen::VectorXd rn;
+      double ssn;
+      int un;
+      pr.residuals(cn, rn, un, ssn);
+      if (un >= used * 0.99 && ssn / un <= ss / used) {
+        c = cn;
+        r = rn;
+        ss = ssn;
+        used = un;
+        lambda = std::max(1e-7, lambda * 0.3);
+        improved = true;
+        break;
+      }
+      lambda *= 10.0;
+    }
+    if (!improved) break;
+    double biggest = 0.0;
+    for (int j = 0; j < m; ++j) biggest = std::max(biggest, std::abs(delta[j]) / step(idx[j]));
+    if (biggest < 1e-3) break;  // below a micro-radian, a tenth of a microsecond
+  }
+  f.c = c;
+  f.used = used;
+  f.rms = std::sqrt(ss / std::max(1, used));
+  if (m > 0) {
+    const double sigma2 = ss / std::max(1, used - m);
+    const Eigen::MatrixXd cov = H.ldlt().solve(Eigen::MatrixXd::Identity(m, m)) * sigma2;
+    for (int j = 0; j < m; ++j) f.se[idx[j]] = std::sqrt(std::max(0.0, cov(j, j)));
+  }
+  f.ok = true;
+  return f;
+}
+
+/// Drops points farther from their plane than k rms; returns how many.
+int trim(Problem& pr, const HeadCalibration& c, double k) {
+  Eigen::VectorXd r;
+  double ss;
+  int used;
+  pr.residuals(c, r, used, ss);
+  const double limit = k * std::sqrt(ss / std::max(1, used));
+  int dropped = 0;
+  for (std::size_t i = 0; i < pr.points.size(); ++i)
+    if (pr.active[i] && std::abs(r[static_cast<Eigen::Index>(i)]) > limit) {
+      pr.active[i] = 0;
+      ++dropped;
+    }
+  return dropped;
+}
+
+}  // namespace
+
+CalibrationResult HeadCalibrator::solve() const {
+  CalibrationResult res;
+  res.sweeps = sweeps_;
+  const std::string bad = o_.validate();
+  if (!bad.empty()) {
+    res.notes.push_back("options: " + bad);
+    return res;
+  }
+  {
+    std::vector<int> dir(sweeps_, 0);
+    for (const Patch& p : patches_) dir[p.sweep] = p.direction;
+    res.up_sweeps = static_cast<int>(std::count(dir.begin(), dir.end(), 1));
+  }
+  if (patches_.empty() || joints_.size() < 2) {
+    res.notes.push_back(patches_.empty() ? "no planes of " + std::to_string(o_.min_plane_points) + " points or more"
+                                         : "no joint states");
+    return res;
+  }
+  Problem pr;
+  pr.chain = chain_;
+  pr.joints = &joints_;
+  std::vector<int> patch_first;
+  for (std::size_t k = 0; k < patches_.size(); ++k) {
+    patch_first.push_back(static_cast<int>(pr.points.size()));
+    for (const Sample& s : patches_[k].samples) pr.points.push_back(Problem::Point{s.x, s.t, static_cast<int>(k)});
+  }
+  patch_first.push_back(static_cast<int>(pr.points.size()));
+  pr.active.assign(pr.points.size(), 1);
+  pr.groups = static_cast<int>(patches_.size());
+  // Each patch's plane with the believed geometry: which are the floor.
+  std::vector<char> is_floor(patches_.size(), 0);
+  HeadCalibration zero;
+  std::vector<Eigen::Vector3d> n0, c0;
+  std::vector<int> cnt0;
+  {
+    std::vector<Eigen::Vector3d> p;
+    std::vector<char> valid;
+    pr.transform(zero, p, valid);
+    pr.planes(p, valid, n0, c0, cnt0);
+  }
+  // The floor: first, in each sweep, the largest patch near z = 0 and near
+  // horizontal (with the believed geometry it may be tilted and shifted by
+  // the errors; a low step must not be taken for it); after the first pass,
+  // every patch that lies on z = 0 as closely as surfaces are merged.
+  const auto markFloor = [&](const std::vector<Eigen::Vector3d>& n, const std::vector<Eigen::Vector3d>& c,
+                             const std::vector<int>& cnt, double angle_deg, double height, bool largest_only) {
+    std::fill(is_floor.begin(), is_floor.end(), 0);
+    res.floor_points = 0;
+    if (!o_.floor) return;
+    std::vector<int> best(sweeps_, -1);
+    for (std::size_t k = 0; k < patches_.size(); ++k) {
+      if (cnt[k] < 3 || std::abs(n[k].z()) < std::cos(angle_deg * kDeg) || std::abs(c[k].z()) > height) continue;
+      int& b = best[patches_[k].sweep];
+      if (!largest_only) is_floor[k] = 1;
+      else if (b < 0 || cnt[k] > cnt[b]) b = static_cast<int>(k);
+    }
+    for (int b : best)
+      if (b >= 0) is_floor[b] = 1;
+    for (std::size_t k = 0; k < patches_.size(); ++k)
+      if (is_floor[k]) res.floor_points += patch_first[k + 1] - patch_first[k];
+  };
+  markFloor(n0, c0, cnt0, o_.floor_angle_deg, o_.floor_height, true);
+  // Groups from a patch assignment: floor patches to -1, the others numbered.
+  const auto assign = [&](const std::vector<int>& surface_of_patch) {
+    int groups = 0;
+    for (std::size_t k = 0; k < patches_.size(); ++k) {
+      const int g = is_floor[k] ? -1 : surface_of_patch[k];
+      groups = std::max(groups, g + 1);
+      for (int i = patch_first[k]; i < patch_first[k + 1]; ++i) pr.points[i].group = g;
+    }
+    pr.groups = groups;
+  };
+
+  std::array<bool, HeadCalibration::kParams> free = o_.estimate;
+  if (!o_.floor || res.floor_points == 0) {
+    if (free[0])
+      res.notes.push_back("joint_offset held: no floor (a rotation about the tilt axis leaves every plane flat)");
+    free[0] = false;
+  }
+  const bool both = res.up_sweeps > 0 && res.up_sweeps < sweeps_;
+  if (!both && free[1]) {
+    res.notes.push_back("time_offset held: sweeps in one direction only (it then looks like a joint offset)");
+    free[1] = false;
+  }
+
+  // Pass 1: each sweep's planes on their own, the floor shared.
+  std::vector<int> own(patches_.size());
+  for (std::size_t k = 0; k < own.size(); ++k) own[k] = static_cast<int>(k);
+  assign(own);
+  pr.setReferenceNormals(zero);
+  Fit fit = solveFree(pr, zero, free, o_.max_iterations);
+  if (!fit.ok) {
+    res.notes.push_back("too few points on the planes");
+    return res;
+  }
+  trim(pr, fit.c, o_.trim_sigma);
+
+  // Pass 2: one surface seen in several sweeps is one plane (the up and the
+  // down sweeps must agree), merged with the pass-1 estimate.
+  std::vector<Eigen::Vector3d> n1, c1;
+  std::vector<int> cnt1;
+  {
+    std::fill(is_floor.begin(), is_floor.end(), 0);
+    assign(own);
+    pr.setReferenceNormals(fit.c);
+    std::vector<Eigen::Vector3d> p;
+    std::vector<char> valid;
+    pr.transform(fit.c, p, valid);
+    pr.planes(p, valid, n1, c1, cnt1);
+  }
+  markFloor(n1, c1, cnt1, o_.merge_angle_deg, o_.merge_distance, false);
+  std::vector<int> order(patches_.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return cnt1[a] > cnt1[b]; });
+  std::vector<int> surface(patches_.size(), -1), head;  // head: the first (largest) patch of each surface
+  for (int k : order) {
+    if (is_floor[k] || cnt1[k] < 3) continue;
+    for (std::size_t s = 0; s < head.size(); ++s) {
+      const int h = head[s];
+      if (std::abs(n1[k].dot(n1[h])) < std::cos(o_.merge_angle_deg * kDeg)) continue;
+      if (std::abs(n1[h].dot(c1[k] - c1[h])) > o_.merge_distance || std::abs(n1[k].dot(c1[h] - c1[k])) > o_.merge_distance)
+        continue;
+      surface[k] = static_cast<int>(s);
+      break;
+    }
+    if (surface[k] < 0) {
+      surface[k] = static_cast<int>(head.size());
+      head.push_back(k);
+    }
+  }
+  for (std::size_t k = 0; k < surface.size(); ++k)
+    if (surface[k] < 0) surface[k] = static_cast<int>(head.size() + k);  // too few points: its own
+  assign(surface);
+  res.surfaces = static_cast<int>(head.size()) + (res.floor_points > 0 ? 1 : 0);
+  pr.setReferenceNormals(fit.c);  // the normals' signs from the pass-1 estimate, near the answer
+  fit = solveFree(pr, fit.c, free, o_.max_iterations);
+  trim(pr, fit.c, o_.trim_sigma);
+  fit = solveFree(pr, fit.c, free, o_.max_iterations);
+  // What the data cannot tell: the least certain parameter beyond its limit is held, and the rest solved again.
+  for (;;) {
+    int worst = -1;
+    double ratio = 1.0;
+    for (int k = 0; k < HeadCalibration::kParams; ++k)
+      if (free[k] && fit.se[k] / o_.max_standard_error[k] > ratio) {
+        ratio = fit.se[k] / o_.max_standard_error[k];
+        worst = k;
+      }
+    if (worst < 0) break;
+    char buf[200];
+    const bool time = worst == 1;
+    std::snprintf(buf, sizeof(buf), "%s held: not observable in this recording (standard error %.3f %s)",
+                  HeadCalibration::name(worst), fit.se[worst] * (time ? 1e3 : 1.0 / kDeg), time ? "ms" : "deg");
+    res.notes.push_back(buf);
+    free[worst] = false;
+    fit.c[worst] = 0.0;
+    fit = solveFree(pr, fit.c, free, o_.max_iterations);
+  }
+  {
+    Eigen::VectorXd r;
+    double ss;
+    int used;
+    pr.residuals(zero, r, used, ss);
+    res.rms_before = std::sqrt(ss / std::max(1, used));  // on the points kept, with the believed geometry
+  }
+  res.calibration = fit.c;
+  res.standard_error = fit.se;
+  res.estimated = free;
+  res.rms_after = fit.rms;
+  res.points = fit.used;
+  res.iterations = fit.iterations;
+  res.ok = true;
+  if (o_.estimate[2] || o_.estimate[3] || o_.estimate[0])
+    res.notes.push_back("a mount pitch (about the tilt axis) is the same as a joint offset: folded into joint_offset");
+  return res;
+}
+
+std::string HeadCalibrator::summary(const CalibrationResult& r) {
+  std::string out;
+  char buf[160];
+  for (int k = 0; k < HeadCalibration::kParams; ++k) {
+    const bool time = k == 1;
+    const double f = time ? 1e3 : 1.0 / kDeg;
+    const char* unit = time ? "ms" : "deg";
+    if (r.estimated[k])
+      std::snprintf(buf, sizeof(buf), "%s_%s=%.4f %s_%s_se=%.4f ", HeadCalibration::name(k), unit, r.calibration[k] * f,
+                    HeadCalibration::name(k), unit, r.standard_error[k] * f);
+    else
+      std::snprintf(buf, sizeof(buf), "%s_%s=held ", HeadCalibration::name(k), unit);
+    out += buf;
+  }
+  std::snprintf(buf, sizeof(buf), "plane_rms_before_m=%.4f plane_rms_after_m=%.4f", r.rms_before, r.rms_after);
+  return out + buf;
+}
+
+}  // namespace core
+}  // namespace tilt_laser_perception
