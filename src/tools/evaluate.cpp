@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "calibration_yaml.hpp"
 #include "tilt_laser_perception/sim/scene_eval.hpp"
 
 using namespace tilt_laser_perception;
@@ -13,17 +14,19 @@ using namespace tilt_laser_perception;
 static void usage() {
   std::fprintf(stderr,
                "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--no-skew] [--fixed D]\n"
-               "                [--verbose] [--dump PREFIX]\n"
+               "                [--verbose] [--dump PREFIX] [--calibration FILE | --errors-known]\n"
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
                "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them\n"
                "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n"
+               "  --calibration FILE  apply calibrate's estimate (joint offset, time offset, mount) to the believed head\n"
+               "  --errors-known      apply the rig errors' own values instead (what a perfect calibration gives)\n"
                "%s", sim::rigOptionsUsage());
 }
 
 int main(int argc, char** argv) {
   sim::SceneEvalOptions o;
-  bool verbose = false;
+  bool verbose = false, errors_known = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
@@ -41,9 +44,24 @@ int main(int argc, char** argv) {
     else if (a == "--fixed" && v) { o.split.mode = core::SplitMode::Fixed; o.split.d_min = std::atof(argv[++i]); }
     else if (a == "--verbose") verbose = true;
     else if (a == "--dump" && v) o.dump_prefix = argv[++i];
+    else if (a == "--errors-known") errors_known = true;
+    else if (a == "--calibration" && v) {
+      try {
+        o.calibration = tools::readCalibrationYaml(argv[++i]);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "evaluate: %s\n", e.what());
+        return 2;
+      }
+    }
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
   if (o.sweeps < 1 || !(o.profile.speed > 0)) { usage(); return 2; }
+  if (errors_known) {
+    o.calibration.joint_offset = o.rig.joint_offset;
+    o.calibration.time_offset = o.rig.time_offset;
+    o.calibration.mount_roll = o.rig.mount_roll;
+    o.calibration.mount_yaw = o.rig.mount_yaw;
+  }
   try {
     const auto evals = sim::evaluateScene(o);
     std::printf("%s\n", sim::evalCsvHeader().c_str());

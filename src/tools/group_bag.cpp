@@ -2,7 +2,8 @@
 // grouping, height map), as replay.launch does in real time, and prints each
 // sweep's planes. For recordings of other rigs after import_tilt_bag.py.
 //   group_bag BAG --urdf FILE [--frame base_footprint] [--joint head_tilt_joint] [--laser laser]
-//             [--dump PREFIX] [--room]
+//             [--calibration FILE] [--dump PREFIX] [--room]
+// --calibration applies calibrate's output (joint offset, time offset, the mount).
 // --dump writes each sweep's points with their plane (PREFIX_sweepK.pcd, ascii x y z label, 0: none).
 // --room judges each sweep as a room: the floor (the lowest level that holds
 // 2 % of the points, +-5 cm) and the largest wall (the vertical plane with the
@@ -16,26 +17,17 @@
 #include <string>
 #include <vector>
 
-#include <geometry_msgs/TransformStamped.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
-#include <sensor_msgs/JointState.h>
-#include <sensor_msgs/LaserScan.h>
-#include <tf2/buffer_core.h>
-#include <tf2_eigen/tf2_eigen.h>
-#include <tf2_msgs/TFMessage.h>
-#include <urdf/model.h>
-
+#include "bag_pipeline.hpp"
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/io/pcd.hpp"
-#include "tilt_laser_perception/ros/conversions.hpp"
 
 using namespace tilt_laser_perception;
 
 namespace {
 void usage() {
   std::fprintf(stderr,
-               "usage: group_bag BAG --urdf FILE [--frame F] [--joint J] [--laser L] [--dump PREFIX] [--room]\n");
+               "usage: group_bag BAG --urdf FILE [--frame F] [--joint J] [--laser L] [--calibration FILE] [--dump PREFIX]\n"
+               "                 [--room]\n");
 }
 
 struct Share {
@@ -109,53 +101,26 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string bag_path, urdf_path, frame = "base_footprint", joint = "head_tilt_joint", laser = "laser", dump;
+  tools::BagPipelineOptions o;
+  o.sweep.max_lines = 5000;  // a slow stand sweeps with many lines
+  std::string dump;
   bool room = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    const bool v = i + 1 < argc;
-    if (a == "--urdf" && v) urdf_path = argv[++i];
-    else if (a == "--frame" && v) frame = argv[++i];
-    else if (a == "--joint" && v) joint = argv[++i];
-    else if (a == "--laser" && v) laser = argv[++i];
-    else if (a == "--dump" && v) dump = argv[++i];
+    try {
+      if (tools::parseBagOption(argc, argv, i, o)) continue;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "group_bag: %s\n", e.what());
+      return 2;
+    }
+    if (a == "--dump" && i + 1 < argc) dump = argv[++i];
     else if (a == "--room") room = true;
-    else if (a[0] != '-' && bag_path.empty()) bag_path = a;
+    else if (a[0] != '-' && o.bag.empty()) o.bag = a;
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
-  if (bag_path.empty() || urdf_path.empty()) { usage(); return 2; }
-  urdf::Model model;
-  if (!model.initFile(urdf_path)) { std::fprintf(stderr, "group_bag: cannot read URDF %s\n", urdf_path.c_str()); return 1; }
-  core::TiltChain chain;
-  std::string parent, error;
-  if (!tiltChainFromUrdf(model, joint, laser, chain, parent, error)) {
-    std::fprintf(stderr, "group_bag: %s\n", error.c_str());
-    return 1;
-  }
-  rosbag::Bag bag;
-  try {
-    bag.open(bag_path, rosbag::bagmode::Read);
-  } catch (const rosbag::BagException& e) {
-    std::fprintf(stderr, "group_bag: cannot open %s: %s\n", bag_path.c_str(), e.what());
-    return 1;
-  }
-  tf2::BufferCore tf(ros::Duration(1e6));
-  const auto base_pose = [&](double t, Eigen::Isometry3d& pose) {
-    try {
-      pose = tf2::transformToEigen(tf.lookupTransform(frame, parent, ros::Time(t)));
-      return core::SweepAssembler::PoseStatus::Ok;
-    } catch (const tf2::TransformException&) {
-      return core::SweepAssembler::PoseStatus::Missing;
-    }
-  };
-  core::SweepParams sp;
-  sp.max_lines = 5000;  // a slow stand sweeps with many lines
-  core::SweepAssembler assembler(sp, chain, base_pose);
-  core::ScanSplitter splitter;
-  core::SplitResult split;
+  if (o.bag.empty() || o.urdf.empty()) { usage(); return 2; }
   core::HeightMapGrid grid;
-  int sweeps = 0, scans = 0;
-  double last = 0.0;
+  int sweeps = 0;
   const auto report = [&](const core::SweepResult& sw) {
     core::buildHeightMap(sw, core::HeightMapParams(), grid);
     std::vector<std::vector<int>> label(sw.lines.size());
@@ -190,31 +155,17 @@ int main(int argc, char** argv) {
     }
     ++sweeps;
   };
-  core::SweepResult done;
-  for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
-    last = m.getTime().toSec();
-    if (const auto t = m.instantiate<tf2_msgs::TFMessage>()) {
-      const bool is_static = m.getTopic() == "/tf_static";
-      for (const auto& tr : t->transforms) tf.setTransform(tr, "bag", is_static);
-    } else if (const auto js = m.instantiate<sensor_msgs::JointState>()) {
-      for (std::size_t i = 0; i < js->name.size() && i < js->position.size(); ++i)
-        if (js->name[i] == joint) assembler.addJoint(js->header.stamp.toSec(), js->position[i]);
-    } else if (const auto scan = m.instantiate<sensor_msgs::LaserScan>()) {
-      ++scans;
-      if (splitter.split(toScanView(*scan), split) != core::ScanError::None) continue;
-      core::LineInput in = toLineInput(*scan);
-      for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
-      for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
-      assembler.addLine(std::move(in), last);
-    }
-    while (assembler.poll(last, done)) report(done);
+  tools::BagPipelineResult r;
+  std::string error;
+  if (!tools::runBagPipeline(o, nullptr, report, r, error)) {
+    std::fprintf(stderr, "group_bag: %s\n", error.c_str());
+    return 1;
   }
-  while (assembler.poll(last + 10.0, done)) report(done);
-  const core::SweepCounters& c = assembler.counters();
+  const core::SweepCounters& c = r.counters;
   std::printf("%d scans, %d sweeps; lines %lu, without joint states %lu, out of order %lu, without pose %lu, bad %lu, "
               "joints out of order %lu; sweeps dropped %lu; %s\n",
-              scans, sweeps, c.lines, c.lines_no_joint, c.lines_out_of_order, c.lines_no_pose, c.lines_bad,
+              r.scans, sweeps, c.lines, c.lines_no_joint, c.lines_out_of_order, c.lines_no_pose, c.lines_bad,
               c.joints_out_of_order, c.sweeps_dropped,
-              assembler.lastWarning().empty() ? "no warnings" : ("last warning: " + assembler.lastWarning()).c_str());
+              r.last_warning.empty() ? "no warnings" : ("last warning: " + r.last_warning).c_str());
   return 0;
 }
