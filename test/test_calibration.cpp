@@ -132,3 +132,31 @@ TEST(Calibration, TheEstimateAppliedBringsThePlanesBack) {
   EXPECT_LT(n(ef), 1.1 * n(ek));
   EXPECT_LT(h(ef), 1.1 * h(ek));
 }
+
+TEST(CalibrationWatch, SaysWhenTheHeadWasKnocked) {
+  // A head that holds its calibration, and one whose horn slipped 1 degree:
+  // a window of 8 sweeps each; the live check reports the second only.
+  const core::TiltChain chain = sim::headChain(sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml"));
+  for (const double slip_deg : {0.0, 1.0}) {
+    sim::RigErrors rig;
+    rig.joint_offset = slip_deg * kDeg;
+    sim::SceneEvalOptions o = options("stairs", 9, 41, rig);
+    core::CalibrationWatch watch(chain);
+    int windows = 0, drifted = 0;
+    std::string message;
+    o.on_joint = [&](double t, double q) { watch.addJoint(t, q); };
+    o.on_sweep = [&](const core::SweepResult& sw) {
+      if (auto full = watch.addSweep(sw)) {
+        ++windows;
+        const core::CalibrationResult r = full->solve();
+        drifted += watch.judge(r, message);
+        if (slip_deg > 0) EXPECT_NEAR(r.calibration.joint_offset / kDeg, slip_deg, 0.05);
+      }
+    };
+    sim::evaluateScene(o);
+    std::printf("slip %.1f deg: %s\n", slip_deg, message.c_str());
+    EXPECT_EQ(windows, 1);
+    EXPECT_EQ(drifted, slip_deg > 0 ? 1 : 0);
+    if (slip_deg > 0) EXPECT_NE(message.find("joint_offset +1.0"), std::string::npos) << message;
+  }
+}

@@ -501,5 +501,56 @@ std::string HeadCalibrator::summary(const CalibrationResult& r) {
   return out + buf;
 }
 
+CalibrationWatch::CalibrationWatch(const TiltChain& chain, const CalibrationWatchOptions& options)
+    : chain_(chain), o_(options) {}
+
+void CalibrationWatch::addJoint(double t, double q) {
+  if (!current_) current_ = std::make_unique<HeadCalibrator>(chain_, o_.calibration);
+  current_->addJoint(t, q);
+  recent_.emplace_back(t, q);
+  while (recent_.size() > 2 && recent_.front().first < t - 5.0) recent_.pop_front();
+}
+
+std::unique_ptr<HeadCalibrator> CalibrationWatch::addSweep(const SweepResult& sweep) {
+  if (!current_) current_ = std::make_unique<HeadCalibrator>(chain_, o_.calibration);
+  current_->addSweep(sweep);
+  if (current_->sweeps() < o_.sweeps) return nullptr;
+  std::unique_ptr<HeadCalibrator> full = std::move(current_);
+  // The next window's first sweep starts where this one ended: its joint states from then on.
+  current_ = std::make_unique<HeadCalibrator>(chain_, o_.calibration);
+  for (const auto& [t, q] : recent_)
+    if (t >= sweep.end - 0.1) current_->addJoint(t, q);
+  return full;
+}
+
+bool CalibrationWatch::judge(const CalibrationResult& r, std::string& message) const {
+  if (!r.ok) {
+    message = "calibration check: no estimate";
+    for (const auto& n : r.notes) message += "; " + n;
+    return false;
+  }
+  bool drifted = false;
+  std::string off;
+  for (int k = 0; k < HeadCalibration::kParams; ++k) {
+    if (!r.estimated[k]) continue;
+    const double v = r.calibration[k];
+    if (std::abs(v) > o_.limit[k] && std::abs(v) > o_.sigmas * r.standard_error[k]) {
+      drifted = true;
+      const bool time = k == 1;
+      char buf[120];
+      std::snprintf(buf, sizeof(buf), "%s%s %+.3f %s", off.empty() ? "" : ", ", HeadCalibration::name(k),
+                    v * (time ? 1e3 : 1.0 / kDeg), time ? "ms" : "deg");
+      off += buf;
+    }
+  }
+  char rms[96];
+  std::snprintf(rms, sizeof(rms), " (plane rms %.1f mm, %.1f mm with it; %d sweeps)", r.rms_before * 1e3,
+                r.rms_after * 1e3, r.sweeps);
+  message = drifted ? "the head's calibration has drifted: " + off + rms +
+                          "; record a few sweeps and run calibrate, or apply: " + HeadCalibrator::summary(r)
+                    : std::string("calibration holds") + rms;
+  return drifted;
+}
+
 }  // namespace core
 }  // namespace tilt_laser_perception

@@ -33,6 +33,7 @@ void SweepGrouperNodelet::onInit() {
   pnh.param<std::string>("frame_id", frame_id_, "base_footprint");
   pnh.param<std::string>("joint_name", joint_name_, "head_tilt_joint");
   pnh.param<std::string>("laser_frame", laser_frame_, "laser");
+  pnh.param("calibration_check_sweeps", calibration_check_sweeps_, 8);
   core::GroupingParams& g = sweep_params_.grouping;
   pnh.param("plane_dist_min", g.dist_min, g.dist_min);
   pnh.param("plane_dist_ratio", g.dist_ratio, g.dist_ratio);
@@ -170,6 +171,7 @@ bool SweepGrouperNodelet::setupChain() {
     }
   };
   assembler_ = std::make_unique<core::SweepAssembler>(sweep_params_, chain, base_pose);
+  chain_ = chain;
   chain_error_.clear();
   NODELET_INFO("SweepGrouper: %s -> %s (joint %s) -> %s, assembling in %s", parent_link_.c_str(),
                joint_name_.c_str(), joint_name_.c_str(), laser_frame_.c_str(), frame_id_.c_str());
@@ -202,6 +204,7 @@ void SweepGrouperNodelet::onJoint(const sensor_msgs::JointStateConstPtr& js) {
         return;
       }
       assembler_->addJoint(t, js->position[i]);
+      if (watch_) watch_->addJoint(t, js->position[i]);
     }
     pollSweeps();
   });
@@ -323,6 +326,7 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   last_sweep_duration_ = sweep.end - sweep.start;
   sweeps_out_.add(InputHealth::now());
   ++published_;
+  checkCalibration(&sweep);
   // The clouds for rviz are built only while somebody listens.
   const auto publishCloud = [&](ros::Publisher& pub, const auto& fill) {
     if (pub.getNumSubscribers() == 0) return;
@@ -339,6 +343,35 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
     planeMarkers(sweep.planes, header, *m);
     markers_pub_.publish(m);
   }
+}
+
+void SweepGrouperNodelet::checkCalibration(const core::SweepResult* sweep) {
+  if (calibration_check_sweeps_ <= 0) return;
+  if (check_.valid() && check_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    const core::CalibrationResult r = check_.get();
+    ++calibration_checks_;
+    calibration_drifted_ = watch_->judge(r, calibration_message_);
+    if (calibration_drifted_) warn(calibration_message_);
+  }
+  if (!sweep) return;
+  if (!watch_) {
+    // The standing robot's base: the chain's base in the frame at the sweep's end.
+    Eigen::Isometry3d base;
+    try {
+      base = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(sweep->end)));
+    } catch (const tf2::TransformException&) {
+      return;
+    }
+    core::TiltChain chain = chain_;
+    chain.base_to_joint = base * chain.base_to_joint;
+    core::CalibrationWatchOptions wo;
+    wo.sweeps = calibration_check_sweeps_;
+    watch_ = std::make_unique<core::CalibrationWatch>(chain, wo);
+    return;  // its joint states start now: the next sweep is its first
+  }
+  std::shared_ptr<core::HeadCalibrator> full = watch_->addSweep(*sweep);
+  // One check at a time (a window that fills while one runs is skipped).
+  if (full && !check_.valid()) check_ = std::async(std::launch::async, [full] { return full->solve(); });
 }
 
 void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
@@ -368,6 +401,12 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("planes (last sweep)", last_planes_);
   stat.add("grouping as lines came [ms] (last sweep)", last_group_ms_);
   stat.add("latency after the last line [ms] (last sweep)", last_latency_ms_);
+  if (calibration_check_sweeps_ > 0) {
+    checkCalibration(nullptr);  // a verdict that came since the last sweep
+    stat.add("calibration check", calibration_message_);
+    stat.add("calibration checks", calibration_checks_);
+    if (calibration_drifted_) stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, "calibration drifted");
+  }
 }
 
 }  // namespace tilt_laser_perception

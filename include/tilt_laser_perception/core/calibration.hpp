@@ -25,6 +25,8 @@
 #pragma once
 
 #include <array>
+#include <deque>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -113,6 +115,44 @@ class HeadCalibrator {
   std::vector<std::pair<double, double>> joints_;
   std::vector<Patch> patches_;
   int sweeps_ = 0;
+};
+
+/// Watches a running head's calibration: the joint states and sweeps of a
+/// window, solved (subsampled) when the window is full, and whether the head
+/// has drifted from its calibration (it was knocked, the horn slipped a
+/// tooth): an estimate beyond its limit and beyond `sigmas` standard errors.
+/// For a standing robot (the chain's base fixed); not thread-safe by itself.
+struct CalibrationWatchOptions {
+  int sweeps = 8;                   ///< sweeps in a window (half up, half down)
+  CalibrationOptions calibration = watchDefaults();
+  std::array<double, HeadCalibration::kParams> limit{{0.2 * M_PI / 180.0, 0.002, 0.3 * M_PI / 180.0,
+                                                     0.3 * M_PI / 180.0}};  ///< drift beyond these is reported [rad, s]
+  double sigmas = 3.0;
+  /// The estimator's options for a live check: few points a plane (cheap), the rest as calibrate's.
+  static CalibrationOptions watchDefaults() {
+    CalibrationOptions o;
+    o.max_points_per_plane = 300;
+    return o;
+  }
+};
+
+class CalibrationWatch {
+ public:
+  explicit CalibrationWatch(const TiltChain& chain, const CalibrationWatchOptions& options = CalibrationWatchOptions());
+  void addJoint(double t, double q);
+  /// Adds a finished sweep; when it fills the window, returns the window's
+  /// estimator (the joints and sweeps so far) and starts a new window; else null.
+  /// The caller solves it (on a thread of its own: it takes tens of milliseconds).
+  std::unique_ptr<HeadCalibrator> addSweep(const SweepResult& sweep);
+  /// Judges a window's result: true when the head has drifted; `message` says
+  /// what it found and what it would suggest, or that it holds.
+  bool judge(const CalibrationResult& r, std::string& message) const;
+
+ private:
+  TiltChain chain_;
+  CalibrationWatchOptions o_;
+  std::unique_ptr<HeadCalibrator> current_;
+  std::deque<std::pair<double, double>> recent_;  ///< the last seconds of joint states, for the next window
 };
 
 }  // namespace core

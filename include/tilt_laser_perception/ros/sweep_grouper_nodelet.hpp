@@ -8,6 +8,8 @@
  */
 #pragma once
 
+#include <future>
+
 #include <memory>
 #include <mutex>
 #include <string>
@@ -22,6 +24,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "tilt_laser_perception/ScanSegments.h"
+#include "tilt_laser_perception/core/calibration.hpp"
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/core/sequence.hpp"
 #include "tilt_laser_perception/core/sweep.hpp"
@@ -49,6 +52,9 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   void takeAssemblerCounts();
   void pollSweeps();
   void publish(const core::SweepResult& sweep);
+  /// The live calibration check: feeds the watch a sweep, starts a window's
+  /// solve on a thread of its own, takes a finished one's verdict.
+  void checkCalibration(const core::SweepResult* sweep);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void warn(const std::string& msg);
 
@@ -76,6 +82,14 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   unsigned long published_ = 0;
   double last_latency_ms_ = 0.0, last_group_ms_ = 0.0;
   std::size_t last_planes_ = 0;
+  // The live calibration check (~calibration_check_sweeps; 0: off).
+  int calibration_check_sweeps_ = 8;
+  core::TiltChain chain_;
+  std::unique_ptr<core::CalibrationWatch> watch_;
+  std::future<core::CalibrationResult> check_;
+  std::string calibration_message_ = "no check yet";
+  bool calibration_drifted_ = false;
+  unsigned long calibration_checks_ = 0;
 };
 
 }  // namespace tilt_laser_perception
