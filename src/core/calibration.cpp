@@ -42,6 +42,9 @@ std::string CalibrationOptions::validate() const {
   if (!(merge_angle_deg > 0.0 && merge_distance > 0.0)) return "merge_angle_deg and merge_distance must be > 0";
   if (!(trim_sigma >= 2.0)) return "trim_sigma must be >= 2";
   if (max_iterations < 1) return "max_iterations must be >= 1";
+  for (int k = 0; k < HeadCalibration::kParams; ++k)
+    if (!(max_abs[k] > 0.0 && max_step[k] > 0.0 && max_standard_error[k] > 0.0))
+      return "max_abs, max_step and max_standard_error must be > 0";
   return "";
 }
 
@@ -75,7 +78,7 @@ void HeadCalibrator::addSweep(const SweepResult& sw) {
       const Eigen::Vector3f& p = line.points[i];
       if (!p.allFinite() || i >= static_cast<int>(line.tilt.size())) continue;
       const Eigen::Vector3d x = chain_.laserPose(line.tilt[i]).inverse() * p.cast<double>();
-      patch.samples.push_back(Sample{x, line.stamp + i * line.time_increment});
+      patch.samples.push_back(Sample{x, line.stamp + i * line.time_increment, s.line});
     }
   }
   // Subsample evenly: the solve's cost is in the points, and a plane of 2000 is well fixed.
@@ -101,6 +104,7 @@ struct Problem {
     Eigen::Vector3d x;
     double t;
     int group;
+    int cluster;  // one scan line's piece of one patch
   };
   std::vector<Point> points;
   std::vector<char> active;
@@ -216,7 +220,7 @@ struct Fit {
 /// Levenberg-Marquardt over the free parameters, the planes refitted at every
 /// evaluation (variable projection), the Jacobian by central differences.
 Fit solveFree(const Problem& pr, HeadCalibration c, const std::array<bool, HeadCalibration::kParams>& free,
-              int max_iterations) {
+              const CalibrationOptions& o) {
   Fit f;
   std::vector<int> idx;
   for (int k = 0; k < HeadCalibration::kParams; ++k)
@@ -231,8 +235,7 @@ Fit solveFree(const Problem& pr, HeadCalibration c, const std::array<bool, HeadC
   double lambda = 1e-3;
   Eigen::MatrixXd J(r.size(), std::max(1, m));
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(std::max(1, m), std::max(1, m));
-  for (int it = 0; it < max_iterations && m > 0; ++it) {
-    f.iterations = it + 1;
+  const auto jacobian = [&]() {
     for (int j = 0; j < m; ++j) {
       HeadCalibration a = c, b = c;
       a[idx[j]] += step(idx[j]);
@@ -248,6 +251,10 @@ Fit solveFree(const Problem& pr, HeadCalibration c, const std::array<bool, HeadC
         if ((ra[i] == 0.0) != (rb[i] == 0.0) || r[i] == 0.0) J(i, j) = 0.0;
     }
     H = J.transpose() * J;
+  };
+  for (int it = 0; it < o.max_iterations && m > 0; ++it) {
+    f.iterations = it + 1;
+    jacobian();
     const Eigen::VectorXd g = J.transpose() * r;
     bool improved = false;
     Eigen::VectorXd delta;
@@ -255,8 +262,12 @@ Fit solveFree(const Problem& pr, HeadCalibration c, const std::array<bool, HeadC
       Eigen::MatrixXd A = H;
       for (int j = 0; j < m; ++j) A(j, j) += lambda * std::max(H(j, j), 1e-12);
       delta = -A.ldlt().solve(g);
+      double scale = 1.0;  // the trust region: no parameter moves more than its max_step
+      for (int j = 0; j < m; ++j) scale = std::min(scale, o.max_step[idx[j]] / std::max(1e-300, std::abs(delta[j])));
+      delta *= scale;
       HeadCalibration cn = c;
-      for (int j = 0; j < m; ++j) cn[idx[j]] += delta[j];
+      for (int j = 0; j < m; ++j)
+        cn[idx[j]] = std::clamp(cn[idx[j]] + delta[j], -o.max_abs[idx[j]], o.max_abs[idx[j]]);
       Eigen::VectorXd rn;
       double ssn;
       int un;
@@ -281,8 +292,24 @@ Fit solveFree(const Problem& pr, HeadCalibration c, const std::array<bool, HeadC
   f.used = used;
   f.rms = std::sqrt(ss / std::max(1, used));
   if (m > 0) {
-    const double sigma2 = ss / std::max(1, used - m);
-    const Eigen::MatrixXd cov = H.ldlt().solve(Eigen::MatrixXd::Identity(m, m)) * sigma2;
+    // Cluster-robust (sandwich) covariance H^-1 B H^-1, B the sum over the
+    // clusters (a line's piece of a plane) of g g^T, g = J_c^T r_c: errors
+    // shared within a line count once, not once a beam.
+    jacobian();
+    Eigen::MatrixXd B = Eigen::MatrixXd::Zero(m, m);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(m);
+    int cluster = -1;
+    for (std::size_t i = 0; i <= pr.points.size(); ++i) {
+      if (i == pr.points.size() || pr.points[i].cluster != cluster) {
+        B += g * g.transpose();
+        g.setZero();
+        if (i == pr.points.size()) break;
+        cluster = pr.points[i].cluster;
+      }
+      g += J.row(static_cast<Eigen::Index>(i)).transpose() * r[static_cast<Eigen::Index>(i)];
+    }
+    const Eigen::MatrixXd Hi = H.ldlt().solve(Eigen::MatrixXd::Identity(m, m));
+    const Eigen::MatrixXd cov = Hi * B * Hi;
     for (int j = 0; j < m; ++j) f.se[idx[j]] = std::sqrt(std::max(0.0, cov(j, j)));
   }
   f.ok = true;
@@ -329,9 +356,17 @@ CalibrationResult HeadCalibrator::solve() const {
   pr.chain = chain_;
   pr.joints = &joints_;
   std::vector<int> patch_first;
+  int clusters = -1;
   for (std::size_t k = 0; k < patches_.size(); ++k) {
     patch_first.push_back(static_cast<int>(pr.points.size()));
-    for (const Sample& s : patches_[k].samples) pr.points.push_back(Problem::Point{s.x, s.t, static_cast<int>(k)});
+    int last_line = -1;
+    for (const Sample& s : patches_[k].samples) {
+      if (s.line != last_line) {
+        ++clusters;
+        last_line = s.line;
+      }
+      pr.points.push_back(Problem::Point{s.x, s.t, static_cast<int>(k), clusters});
+    }
   }
   patch_first.push_back(static_cast<int>(pr.points.size()));
   pr.active.assign(pr.points.size(), 1);
@@ -392,16 +427,55 @@ CalibrationResult HeadCalibrator::solve() const {
     free[1] = false;
   }
 
+  // What the data cannot tell is held, and the rest solved again: an estimate
+  // at its bound first (the fit ran along a flat direction), then the least
+  // certain parameter beyond its limit (unless bounds_only).
+  Fit fit;
+  const auto hold = [&](bool bounds_only) {
+    for (;;) {
+      int worst = -1;
+      double ratio = 1.0;
+      bool at_bound = false;
+      for (int k = 0; k < HeadCalibration::kParams; ++k) {
+        if (!free[k]) continue;
+        if (std::abs(fit.c[k]) >= 0.999 * o_.max_abs[k]) {
+          worst = k;
+          at_bound = true;
+          break;
+        }
+        if (!bounds_only && fit.se[k] / o_.max_standard_error[k] > ratio) {
+          ratio = fit.se[k] / o_.max_standard_error[k];
+          worst = k;
+        }
+      }
+      if (worst < 0) break;
+      char buf[200];
+      const bool time = worst == 1;
+      const double unit = time ? 1e3 : 1.0 / kDeg;
+      if (at_bound)
+        std::snprintf(buf, sizeof(buf), "%s held: not fixed by this scene (the fit ran to its bound, %.1f %s)",
+                      HeadCalibration::name(worst), fit.c[worst] * unit, time ? "ms" : "deg");
+      else
+        std::snprintf(buf, sizeof(buf), "%s held: not observable in this recording (standard error %.3f %s)",
+                      HeadCalibration::name(worst), fit.se[worst] * unit, time ? "ms" : "deg");
+      res.notes.push_back(buf);
+      free[worst] = false;
+      fit.c[worst] = 0.0;
+      fit = solveFree(pr, fit.c, free, o_);
+    }
+  };
+
   // Pass 1: each sweep's planes on their own, the floor shared.
   std::vector<int> own(patches_.size());
   for (std::size_t k = 0; k < own.size(); ++k) own[k] = static_cast<int>(k);
   assign(own);
   pr.setReferenceNormals(zero);
-  Fit fit = solveFree(pr, zero, free, o_.max_iterations);
+  fit = solveFree(pr, zero, free, o_);
   if (!fit.ok) {
     res.notes.push_back("too few points on the planes");
     return res;
   }
+  hold(true);
   trim(pr, fit.c, o_.trim_sigma);
 
   // Pass 2: one surface seen in several sweeps is one plane (the up and the
@@ -418,6 +492,12 @@ CalibrationResult HeadCalibrator::solve() const {
     pr.planes(p, valid, n1, c1, cnt1);
   }
   markFloor(n1, c1, cnt1, o_.merge_angle_deg, o_.merge_distance, false);
+  if (free[0] && res.floor_points == 0) {
+    res.notes.push_back("joint_offset held: no floor at z = 0 once corrected (a rotation about the tilt axis leaves "
+                        "every plane flat)");
+    free[0] = false;
+    fit.c.joint_offset = 0.0;
+  }
   std::vector<int> order(patches_.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
   std::sort(order.begin(), order.end(), [&](int a, int b) { return cnt1[a] > cnt1[b]; });
@@ -442,28 +522,10 @@ CalibrationResult HeadCalibrator::solve() const {
   assign(surface);
   res.surfaces = static_cast<int>(head.size()) + (res.floor_points > 0 ? 1 : 0);
   pr.setReferenceNormals(fit.c);  // the normals' signs from the pass-1 estimate, near the answer
-  fit = solveFree(pr, fit.c, free, o_.max_iterations);
+  fit = solveFree(pr, fit.c, free, o_);
   trim(pr, fit.c, o_.trim_sigma);
-  fit = solveFree(pr, fit.c, free, o_.max_iterations);
-  // What the data cannot tell: the least certain parameter beyond its limit is held, and the rest solved again.
-  for (;;) {
-    int worst = -1;
-    double ratio = 1.0;
-    for (int k = 0; k < HeadCalibration::kParams; ++k)
-      if (free[k] && fit.se[k] / o_.max_standard_error[k] > ratio) {
-        ratio = fit.se[k] / o_.max_standard_error[k];
-        worst = k;
-      }
-    if (worst < 0) break;
-    char buf[200];
-    const bool time = worst == 1;
-    std::snprintf(buf, sizeof(buf), "%s held: not observable in this recording (standard error %.3f %s)",
-                  HeadCalibration::name(worst), fit.se[worst] * (time ? 1e3 : 1.0 / kDeg), time ? "ms" : "deg");
-    res.notes.push_back(buf);
-    free[worst] = false;
-    fit.c[worst] = 0.0;
-    fit = solveFree(pr, fit.c, free, o_.max_iterations);
-  }
+  fit = solveFree(pr, fit.c, free, o_);
+  hold(false);
   {
     Eigen::VectorXd r;
     double ss;

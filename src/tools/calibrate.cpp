@@ -132,7 +132,8 @@ int main(int argc, char** argv) {
   const auto t_start = std::chrono::steady_clock::now();
   core::HeadCalibration total;
   core::CalibrationResult res;
-  for (int pass = 0; pass < passes; ++pass) {
+  bool held_now = false;  // a pass held what an earlier one had estimated (and applied): one more pass without it
+  for (int pass = 0; pass < passes || (held_now && pass < passes + 2); ++pass) {
     o.calibration = total;
     // The calibrator's chain has the base folded in: it is known once tf gave the first pose.
     std::unique_ptr<core::HeadCalibrator> cal;
@@ -172,10 +173,22 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "pass %d: %d sweeps (%d up), %d surfaces, %d points (%d on the floor): %s\n", pass + 1,
                  pr.sweeps, pr.up_sweeps, pr.surfaces, pr.points, pr.floor_points,
                  core::HeadCalibrator::summary(pr).c_str());
+    const auto estimated = pass == 0 ? pr.estimated : res.estimated;
+    std::vector<std::string> notes = res.notes;  // every pass's, once each
+    for (const auto& n : pr.notes)
+      if (std::find(notes.begin(), notes.end(), n) == notes.end()) notes.push_back(n);
     res = pr;
+    res.notes = notes;
     res.rms_before = rms_before;
-    // The pass estimates what is left after the previous ones: small angles add.
-    for (int k = 0; k < core::HeadCalibration::kParams; ++k) total[k] += pr.calibration[k];
+    // The pass estimates what is left after the previous ones: small angles
+    // add. What one pass could not tell is not applied.
+    held_now = false;
+    for (int k = 0; k < core::HeadCalibration::kParams; ++k) {
+      res.estimated[k] = estimated[k] && pr.estimated[k];
+      held_now |= total[k] != 0.0 && !res.estimated[k];
+      total[k] = res.estimated[k] ? total[k] + pr.calibration[k] : 0.0;
+      co.estimate[k] = co.estimate[k] && res.estimated[k];  // held stays held
+    }
   }
   res.calibration = total;
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

@@ -67,6 +67,14 @@ struct CalibrationOptions {
   /// A parameter with a larger standard error is not observable here: held at zero [rad, s].
   std::array<double, HeadCalibration::kParams> max_standard_error{{0.1 * M_PI / 180.0, 0.002, 0.2 * M_PI / 180.0,
                                                                    0.2 * M_PI / 180.0}};
+  /// The largest error a head can have here: an estimate that reaches it is
+  /// not fixed by the scene (a flat direction of the fit, e.g. a roll of 90
+  /// degrees that lays each line along the tilt axis) and is held [rad, s].
+  std::array<double, HeadCalibration::kParams> max_abs{{5.0 * M_PI / 180.0, 0.03, 3.0 * M_PI / 180.0,
+                                                        3.0 * M_PI / 180.0}};
+  /// The largest change of one iteration (a trust region) [rad, s].
+  std::array<double, HeadCalibration::kParams> max_step{{0.5 * M_PI / 180.0, 0.005, 0.5 * M_PI / 180.0,
+                                                         0.5 * M_PI / 180.0}};
   /// Empty when valid, else a message naming the option.
   std::string validate() const;
 };
@@ -74,7 +82,10 @@ struct CalibrationOptions {
 struct CalibrationResult {
   bool ok = false;                  ///< false: too little data (why in notes)
   HeadCalibration calibration;      ///< the estimate (held parameters zero)
-  HeadCalibration standard_error;   ///< formal standard errors (from the residuals' scatter; beams taken as independent)
+  /// Standard errors, cluster-robust: the residuals of one scan line on one
+  /// plane share that line's errors (its stamp's jitter, the joint's reading),
+  /// so each such piece counts as one observation, not as its beams.
+  HeadCalibration standard_error;
   std::array<bool, HeadCalibration::kParams> estimated{};  ///< false: not asked for, or not observable (notes say which)
   std::vector<std::string> notes;   ///< what the data could and could not tell
   double rms_before = 0.0;          ///< point-to-plane rms with the believed geometry [m]
@@ -104,6 +115,7 @@ class HeadCalibrator {
   struct Sample {
     Eigen::Vector3d x;  ///< in the laser's frame [m]
     double t;           ///< the beam's stamped time [s]
+    int line;           ///< its scan line in the sweep (the points of one line share its errors)
   };
   struct Patch {        ///< one plane of one sweep
     std::vector<Sample> samples;
