@@ -37,6 +37,16 @@ echo "== The same with one joint angle per scan line (at its stamp) instead of o
 echo "== The same with a real rig's errors (--realistic: encoder, backlash, timing, mount, footprint; README)"
 "$bin/evaluate" --scene stairs --sweeps 5 --realistic | tail -1 | tee "$out/evaluate_realistic.txt"
 python3 "$here/scripts/plot_heightmap.py" "$out/stairs" "$out/heightmap_evaluate.png"
+echo "== Calibration: a recording of a head 1.2 deg, 6 ms and 0.5/-0.4 deg off (with --realistic's other errors but"
+echo "   no gear play), calibrate on it, then evaluate with the estimate applied"
+"$bin/make_scene_bag" --scene stairs --out "$out/calibration.bag" --duration 8 --realistic --backlash-deg 0 \
+  --joint-offset-deg 1.2 --time-offset-ms 6 --mount-error-deg 0.5,-0.4 > /dev/null
+"$bin/calibrate" "$out/calibration.bag" --out "$out/calibration.yaml" 2>/dev/null | tee "$out/calibration.txt"
+for how in "" "--calibration $out/calibration.yaml" "--errors-known"; do
+  echo "evaluate ${how:-(uncorrected)}: $("$bin/evaluate" --scene stairs --sweeps 5 --realistic --backlash-deg 0 \
+    --joint-offset-deg 1.2 --time-offset-ms 6 --mount-error-deg 0.5,-0.4 $how | tail -1 |
+    grep -o 'correct=[^ ]* .*normal_err_deg=[^ ]* .*heightmap_rmse_m=[^ ]*' | sed 's/ over=.*noise=[^ ]*//; s/ offset_err.*heightmap_rmse/ heightmap_rmse/')"
+done | tee -a "$out/calibration.txt"
 echo
 # Another rig's real recording (../shared/data, when it is there): imported, then grouped offline.
 rig_bag="$here/../shared/data/real/tilting_lidar_scanner/room_240.bag"
@@ -45,6 +55,7 @@ if [ -f "$rig_bag" ]; then
   python3 "$here/scripts/import_tilt_bag.py" "$rig_bag" "$out/room_240_tlp.bag" | tee "$out/room_240.txt"
   "$bin/group_bag" "$out/room_240_tlp.bag" --urdf "$out/room_240_tlp.urdf" --room --dump "$out/room_240" |
     tee -a "$out/room_240.txt"
+  "$bin/calibrate" "$out/room_240_tlp.bag" --urdf "$out/room_240_tlp.urdf" 2>/dev/null | tee -a "$out/room_240.txt"
   python3 "$here/scripts/plot_cloud.py" "$out/room_240_sweep0.pcd" "$out/room_240.png" \
     "room_240 (tilting_lidar_scanner), its first sweep; colours: planes" | tee -a "$out/room_240.txt"
 else
@@ -91,6 +102,9 @@ python3 "$here/scripts/plot_heightmap.py" "$out/live" "$out/heightmap.png"
   cat "$out/evaluate_no_skew.txt"
   echo "With a real rig's errors (--realistic):"
   cat "$out/evaluate_realistic.txt"
+  echo
+  echo "== Calibration (make_scene_bag with errors, calibrate, evaluate):"
+  cat "$out/calibration.txt"
   echo
   echo "== Another rig's recording (import_tilt_bag.py, group_bag):"
   cat "$out/room_240.txt"
