@@ -38,7 +38,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     }
   }
 
-  const bool floor_known = out.floor_plane >= 0;
+  const float floor_h = static_cast<float>(out.floor_height), floor_tol = static_cast<float>(p.floor_tolerance);
   // Fill each walkable plane's polygon (holes by the even-odd rule) row by row.
   struct Edge {
     double ax, ay, bx, by;
@@ -96,16 +96,19 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       for (std::size_t k = 0; k + 1 < xs.size(); k += 2) {
         const int ix0 = std::max(0, static_cast<int>(std::ceil((xs[k] - p.origin_x) / p.resolution - 0.5)));
         const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xs[k + 1] - p.origin_x) / p.resolution - 0.5)));
-        for (int ix = ix0; ix <= ix1; ++ix) {
-          const double x = p.origin_x + (ix + 0.5) * p.resolution;
-          const double z = (pl.fit.offset - n.x() * x - n.y() * y) * inv_nz;
-          const std::size_t c = out.index(ix, iy);
-          if (std::isnan(out.heights[c]) || z > out.heights[c]) {  // seen from above: the higher surface
-            out.heights[c] = static_cast<float>(z);
-            out.plane_ids[c] = pl.id;
-            out.classes[c] = floor_known && std::abs(z - out.floor_height) <= p.floor_tolerance ? CellClass::Floor
-                                                                                              : CellClass::Step;
-          }
+        // z along the row: a ramp from the first cell's height
+        const float dz = static_cast<float>(-n.x() * p.resolution * inv_nz);
+        const float z0 = static_cast<float>((pl.fit.offset - n.x() * (p.origin_x + (ix0 + 0.5) * p.resolution) - n.y() * y) * inv_nz);
+        const std::size_t c0 = out.index(ix0, iy);
+        float* h = out.heights.data() + c0;
+        const int count = ix1 - ix0 + 1;
+        for (int k = 0; k < count; ++k) {
+          const float z = z0 + k * dz;
+          if (h[k] >= z) continue;  // seen from above: the higher surface (NaN: none yet)
+          h[k] = z;
+          out.plane_ids[c0 + k] = pl.id;
+          // NaN while the floor is unknown: a step
+          out.classes[c0 + k] = std::abs(z - floor_h) <= floor_tol ? CellClass::Floor : CellClass::Step;
         }
       }
     }
@@ -149,9 +152,10 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     const auto& edges = sweep.lines[li].edges;
     std::size_t ei = 0;
     const auto markLoose = [&](int i) {  // a point of no plane; called in beam order
+      if (!inMap(pts[i])) return;
       while (ei < edges.size() && edges[ei].first < i) ++ei;
       if (ei < edges.size() && edges[ei].first == i && edges[ei].second == EdgeKind::Veil) return;
-      if (inMap(pts[i])) mark(pts[i], nullptr);
+      mark(pts[i], nullptr);
     };
     int cursor = 0;
     for (; si < sweep.segments.size() && sweep.segments[si].line == static_cast<int>(li); ++si) {
@@ -159,6 +163,15 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       const int pid = sweep.segment_plane[si];
       for (int i = cursor; i < s.first; ++i) markLoose(i);
       if (pid < 0 || !(walkable[pid] || step_face[pid])) {
+        // A segment lies along the line between its ends (within the split's
+        // tolerance, centimetres): one wholly beside the map is skipped (the
+        // far walls, most of a sweep's points).
+        const bool beside = std::max(s.start.x(), s.end.x()) < x_lo || std::min(s.start.x(), s.end.x()) > x_hi ||
+                            std::max(s.start.y(), s.end.y()) < y_lo || std::min(s.start.y(), s.end.y()) > y_hi;
+        if (beside) {
+          cursor = std::max(cursor, s.last + 1);
+          continue;
+        }
         if (pid >= 0) {
           for (int i = std::max(cursor, s.first); i <= s.last; ++i)
             if (inMap(pts[i])) mark(pts[i], &sweep.planes[pid]);
