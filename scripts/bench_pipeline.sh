@@ -1,56 +1,86 @@
 #!/usr/bin/env bash
-# The cost of running: the whole pipeline (driver, splitter, grouper in one
-# nodelet manager) on the emulated head at the sensor's 40 Hz with the grouper
-# on. Measures the nodelet manager's CPU time over a window after a warm-up and
-# its resident memory, and prints them (the emulator, robot_state_publisher and
-# the neck relay are separate processes: printed apart, not counted).
-# usage: bench_pipeline.sh [SECONDS=30] [WARMUP=10]
-# Goals (issue 6): under 10 % of one core, under 150 MB resident.
+# The cost of running: the whole pipeline (sim.launch: driver, splitter,
+# grouper and the neck relay in one nodelet manager, robot_state_publisher) on
+# the emulated head at the sensor's 40 Hz with the grouper on. Measures every
+# process roslaunch started over a window after a warm-up (CPU time as a share
+# of one core, resident memory) and prints them with the package's total (the
+# emulator and ROS's own rosmaster and rosout are printed apart, not counted).
+# With a second workspace (an earlier release, built by scripts/build.sh with
+# TLP_WS=DIR) both pipelines run at the same time under their own masters, so
+# that a noisy machine weighs on both alike, and the ratio is printed.
+# usage: bench_pipeline.sh [SECONDS=30] [WARMUP=10] [BASELINE_WS]
+# Goals (issue 18): the package under 5 % of one core, under 100 MB resident.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
-window="${1:-30}"; warmup="${2:-10}"
+window="${1:-30}"; warmup="${2:-10}"; baseline="${3:-}"
 export PATH="/usr/bin:$PATH"
 ws="${TLP_WS:-$here/build_ws}"
-set +u; source "$ws/install/setup.bash"; set -u
 export ROS_HOME="${ROS_HOME:-$ws/ros_home}"; mkdir -p "$ROS_HOME"
-port=$(( 13000 + RANDOM % 1000 ))
-export ROS_MASTER_URI="http://localhost:$port"
-roslaunch -p "$port" tilt_laser_perception sim.launch port:=$(( port + 1000 )) \
-  servo_link:=/tmp/tlp_bench_servo_$port >/tmp/tlp_bench_$port.log 2>&1 &
-launch=$!
-trap 'kill -INT $launch 2>/dev/null; wait $launch 2>/dev/null || true' EXIT
-sleep "$warmup"
-pid_of() { pgrep -f "$1" | while read -r p; do [ "$(ps -o ppid= -p "$p" | tr -d ' ')" = "$launch" ] && echo "$p"; done | head -1 || true; }
-manager=$(pid_of "nodelet manager")
-[ -n "$manager" ] || { echo "no nodelet manager running; see /tmp/tlp_bench_$port.log"; exit 1; }
 tick=$(getconf CLK_TCK)
-cpu() { awk '{print $14 + $15}' "/proc/$1/stat"; }
-declare -A names=([manager]="$manager" [emulator]="$(pid_of tilt_laser_sim)" [rsp]="$(pid_of robot_state_publisher)" [neck]="$(pid_of neck_joint_states)")
-declare -A c0
-for k in "${!names[@]}"; do [ -n "${names[$k]}" ] && c0[$k]=$(cpu "${names[$k]}"); done
-t0=$(date +%s.%N)
-peak=0
-end=$(( $(date +%s) + window ))
-while [ "$(date +%s)" -lt "$end" ]; do
-  rss=$(awk '/VmRSS/ {print $2}' "/proc/$manager/status")
-  [ "$rss" -gt "$peak" ] && peak=$rss
-  sleep 1
+pids=()
+start() {  # workspace, port: starts sim.launch from that workspace; prints roslaunch's pid
+  local w="$1" port="$2"
+  ( set +u; source "$w/install/setup.bash"; set -u
+    export ROS_MASTER_URI="http://localhost:$port"
+    exec roslaunch -p "$port" tilt_laser_perception sim.launch port:=$(( port + 1000 )) \
+      servo_link:=/tmp/tlp_bench_servo_$port ) >/tmp/tlp_bench_$port.log 2>&1 &
+  echo $!
+}
+base_port=$(( 13000 + RANDOM % 500 ))
+runs=("$ws")
+[ -n "$baseline" ] && runs+=("$baseline")
+declare -A launch_of
+for i in "${!runs[@]}"; do
+  launch_of[$i]=$(start "${runs[$i]}" $(( base_port + 2 * i )))
+  pids+=("${launch_of[$i]}")
 done
-t1=$(date +%s.%N)
-sweeps=$(timeout 5 rostopic echo -n4 /diagnostics 2>/dev/null | grep -A1 '"sweeps published"' | awk -F'"' '/value/ {print $2}' | head -1 || true)
-echo "pipeline on the emulated head (stairs scene, 40 Hz scans, 1081 beams, grouper on), ${window} s after ${warmup} s warm-up:"
-for k in manager emulator rsp neck; do
-  p="${names[$k]}"; [ -n "$p" ] || continue
-  pct=$(awk -v a="${c0[$k]}" -v b="$(cpu "$p")" -v t0="$t0" -v t1="$t1" -v hz="$tick" 'BEGIN {printf "%.1f", 100 * (b - a) / hz / (t1 - t0)}')
-  r=$(awk '/VmRSS/ {printf "%.1f", $2 / 1024}' "/proc/$p/status")
-  case $k in
-    manager) label="nodelet manager (driver, splitter, grouper)";;
-    emulator) label="emulator (tilt_laser_sim; not the pipeline)";;
-    rsp) label="robot_state_publisher";;
-    neck) label="neck_joint_states.py";;
+trap 'for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null; done; wait 2>/dev/null || true' EXIT
+sleep "$warmup"
+children() { ps -o pid= --ppid "$1" | tr -d ' '; }
+cpu() { awk '{print $14 + $15}' "/proc/$1/stat" 2>/dev/null || echo 0; }
+label() {
+  local cmd; cmd=$(tr '\0' ' ' < "/proc/$1/cmdline" 2>/dev/null | cut -c1-200)
+  case "$cmd" in
+    *tilt_laser_sim*) echo "emulator";;
+    *rosmaster*) echo "ros:rosmaster";;
+    *rosout*) echo "ros:rosout";;
+    *"nodelet manager"*) echo "nodelet manager (driver, splitter, grouper, neck relay)";;
+    *"nodelet load"*) echo "nodelet loader ($(echo "$cmd" | awk '{print $3}' | sed 's|.*/||'))";;
+    *robot_state_publisher*) echo "robot_state_publisher";;
+    *neck_joint_states*) echo "neck_joint_states.py";;
+    *) echo "$(basename "$(echo "$cmd" | awk '{print ($1 ~ /python/ ? $2 : $1)}')")";;
   esac
-  printf "  %-46s cpu %5s %% of one core, resident %6s MB\n" "$label" "$pct" "$r"
-  [ "$k" = manager ] && mpct=$pct
+}
+declare -A c0 procs
+for i in "${!runs[@]}"; do
+  procs[$i]=$(children "${launch_of[$i]}" | tr '\n' ' ')
+  [ -n "${procs[$i]// /}" ] || { echo "nothing running for ${runs[$i]}; see /tmp/tlp_bench_$(( base_port + 2 * i )).log"; exit 1; }
+  for p in ${procs[$i]}; do c0[$p]=$(cpu "$p"); done
 done
-echo "  sweeps published so far: ${sweeps:-?}"
-printf "cpu_percent=%s rss_peak_mb=%.1f (goals: < 10 %%, < 150 MB)\n" "$mpct" "$(awk -v p="$peak" 'BEGIN {print p / 1024}')"
+t0=$(date +%s.%N)
+sleep "$window"
+t1=$(date +%s.%N)
+declare -A total_cpu total_rss
+for i in "${!runs[@]}"; do
+  echo "${runs[$i]}: sim.launch on the emulated head (stairs, 40 Hz scans of 1081 beams, grouper on), ${window} s after ${warmup} s:"
+  tc=0; tr=0
+  for p in ${procs[$i]}; do
+    [ -r "/proc/$p/stat" ] || continue
+    l=$(label "$p")
+    pct=$(awk -v a="${c0[$p]}" -v b="$(cpu "$p")" -v t0="$t0" -v t1="$t1" -v hz="$tick" 'BEGIN {printf "%.2f", 100 * (b - a) / hz / (t1 - t0)}')
+    r=$(awk '/VmRSS/ {printf "%.1f", $2 / 1024}' "/proc/$p/status")
+    case "$l" in
+      emulator|ros:*) note=" (not counted)";;
+      *) note=""; tc=$(awk -v a="$tc" -v b="$pct" 'BEGIN {print a + b}'); tr=$(awk -v a="$tr" -v b="$r" 'BEGIN {print a + b}');;
+    esac
+    printf "  %-58s cpu %6s %% of one core, resident %6s MB%s\n" "$l" "$pct" "$r" "$note"
+  done
+  total_cpu[$i]=$tc; total_rss[$i]=$tr
+  printf "  package total: cpu_percent=%.2f rss_mb=%.1f (goals: < 5 %%, < 100 MB)\n" "$tc" "$tr"
+done
+if [ -n "$baseline" ]; then
+  printf "side by side: this %.2f %% / %.1f MB, baseline %.2f %% / %.1f MB: cpu ratio %.2f, memory ratio %.2f\n" \
+    "${total_cpu[0]}" "${total_rss[0]}" "${total_cpu[1]}" "${total_rss[1]}" \
+    "$(awk -v a="${total_cpu[0]}" -v b="${total_cpu[1]}" 'BEGIN {print (b > 0 ? a / b : 0)}')" \
+    "$(awk -v a="${total_rss[0]}" -v b="${total_rss[1]}" 'BEGIN {print (b > 0 ? a / b : 0)}')"
+fi

@@ -4,6 +4,7 @@
 // bringing the planes back.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <random>
 
@@ -148,7 +149,10 @@ TEST(CalibrationWatch, SaysWhenTheHeadWasKnocked) {
     o.on_sweep = [&](const core::SweepResult& sw) {
       if (auto full = watch.addSweep(sw)) {
         ++windows;
+        const auto t0 = std::chrono::steady_clock::now();
         const core::CalibrationResult r = full->solve();
+        std::printf("the window's solve: %.0f ms of CPU (%d points)\n",
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1e3, r.points);
         drifted += watch.judge(r, message);
         if (slip_deg > 0) EXPECT_NEAR(r.calibration.joint_offset / kDeg, slip_deg, 0.05);
       }

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "tilt_laser_perception/core/input_check.hpp"
+#include "tilt_laser_perception/core/joint_hold.hpp"
 #include "tilt_laser_perception/core/scan_split.hpp"
 
 using namespace tilt_laser_perception::core;
@@ -158,4 +159,15 @@ TEST(InputCheck, ParametersAreValidatedWithTheirNames) {
   l = ScanLimits();
   l.max_duration = kNan;
   EXPECT_NE(l.validate().find("max_scan_duration"), std::string::npos);
+}
+
+TEST(JointHold, HoldsWhileNobodyElsePublishesTheJoints) {
+  JointHold hold(0.5);
+  EXPECT_TRUE(hold.holding(0.0));   // nothing seen yet
+  hold.seen(10.0);                  // the robot's joint states
+  EXPECT_FALSE(hold.holding(10.2));
+  EXPECT_FALSE(hold.holding(10.49));
+  EXPECT_TRUE(hold.holding(10.51));  // silent for longer than the timeout: hold again
+  hold.seen(11.0);
+  EXPECT_FALSE(hold.holding(11.1));
 }

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""neck_joint_states.py holds the neck joints while the robot is silent about
+"""The NeckRelay nodelet (the neck_relay node) holds the neck joints while the robot is silent about
 them, falls silent while the robot publishes them, and takes over again when
 the robot stops."""
 import threading

@@ -38,7 +38,7 @@ std::string CalibrationOptions::validate() const {
   if (!(floor_angle_deg > 0.0 && floor_angle_deg < 45.0)) return "floor_angle_deg must be in (0, 45)";
   if (!(floor_height > 0.0)) return "floor_height must be > 0";
   if (min_plane_points < 10) return "min_plane_points must be >= 10";
-  if (max_points_per_plane < min_plane_points) return "max_points_per_plane must be >= min_plane_points";
+  if (max_points_per_plane < 10) return "max_points_per_plane must be >= 10";
   if (!(merge_angle_deg > 0.0 && merge_distance > 0.0)) return "merge_angle_deg and merge_distance must be > 0";
   if (!(trim_sigma >= 2.0)) return "trim_sigma must be >= 2";
   if (max_iterations < 1) return "max_iterations must be >= 1";
@@ -68,29 +68,32 @@ void HeadCalibrator::addSweep(const SweepResult& sw) {
     patch_of_plane[k] = static_cast<int>(patches_.size());
     patches_.push_back(Patch{{}, sweeps_, direction});
   }
+  // The planes' beams, (line, beam), then an even subsample of each (the
+  // solve's cost is in the points, and a plane of 2000 is well fixed), and
+  // only those put in the laser's frame.
+  std::vector<std::vector<std::pair<int, int>>> beams(sw.planes.size());
   for (std::size_t si = 0; si < sw.segments.size() && si < sw.segment_plane.size(); ++si) {
     const int pl = sw.segment_plane[si];
     if (pl < 0 || pl >= static_cast<int>(patch_of_plane.size()) || patch_of_plane[pl] < 0) continue;
     const Segment3& s = sw.segments[si];
     const SweepLine& line = sw.lines[s.line];
-    Patch& patch = patches_[patch_of_plane[pl]];
-    for (int i = s.first; i <= s.last && i < static_cast<int>(line.points.size()); ++i) {
-      const Eigen::Vector3f& p = line.points[i];
-      if (!p.allFinite() || i >= static_cast<int>(line.tilt.size())) continue;
-      const Eigen::Vector3d x = chain_.laserPose(line.tilt[i]).inverse() * p.cast<double>();
-      patch.samples.push_back(Sample{x, line.stamp + i * line.time_increment, s.line});
-    }
+    const int end = std::min({s.last + 1, static_cast<int>(line.points.size()), static_cast<int>(line.tilt.size())});
+    for (int i = s.first; i < end; ++i)
+      if (line.points[i].allFinite()) beams[pl].emplace_back(s.line, i);
   }
-  // Subsample evenly: the solve's cost is in the points, and a plane of 2000 is well fixed.
-  for (int k : patch_of_plane) {
-    if (k < 0) continue;
-    auto& s = patches_[k].samples;
-    if (static_cast<int>(s.size()) <= o_.max_points_per_plane) continue;
-    std::vector<Sample> kept;
-    kept.reserve(o_.max_points_per_plane);
-    const double stride = static_cast<double>(s.size()) / o_.max_points_per_plane;
-    for (int j = 0; j < o_.max_points_per_plane; ++j) kept.push_back(s[static_cast<std::size_t>(j * stride)]);
-    s = std::move(kept);
+  for (std::size_t pl = 0; pl < beams.size(); ++pl) {
+    if (patch_of_plane[pl] < 0) continue;
+    const auto& all = beams[pl];
+    const std::size_t n = std::min<std::size_t>(all.size(), static_cast<std::size_t>(o_.max_points_per_plane));
+    auto& samples = patches_[patch_of_plane[pl]].samples;
+    samples.reserve(n);
+    const double stride = static_cast<double>(all.size()) / std::max<std::size_t>(1, n);
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto [li, i] = all[static_cast<std::size_t>(j * stride)];
+      const SweepLine& line = sw.lines[li];
+      const Eigen::Vector3d x = chain_.laserPose(line.tilt[i]).inverse() * line.points[i].cast<double>();
+      samples.push_back(Sample{x, line.stamp + i * line.time_increment, li});
+    }
   }
   ++sweeps_;
 }
@@ -567,22 +570,23 @@ CalibrationWatch::CalibrationWatch(const TiltChain& chain, const CalibrationWatc
     : chain_(chain), o_(options) {}
 
 void CalibrationWatch::addJoint(double t, double q) {
-  if (!current_) current_ = std::make_unique<HeadCalibrator>(chain_, o_.calibration);
-  current_->addJoint(t, q);
+  if (current_) current_->addJoint(t, q);
   recent_.emplace_back(t, q);
-  while (recent_.size() > 2 && recent_.front().first < t - 5.0) recent_.pop_front();
+  while (recent_.size() > 2 && recent_.front().first < t - 30.0) recent_.pop_front();  // a slow sweep's
 }
 
 std::unique_ptr<HeadCalibrator> CalibrationWatch::addSweep(const SweepResult& sweep) {
-  if (!current_) current_ = std::make_unique<HeadCalibrator>(chain_, o_.calibration);
+  if (!current_) {
+    if (sweep.start < next_start_) return nullptr;
+    // A new window: this sweep's joint states from its start on.
+    next_start_ = sweep.start + o_.period;
+    current_ = std::make_unique<HeadCalibrator>(chain_, o_.calibration);
+    for (const auto& [t, q] : recent_)
+      if (t >= sweep.start - 0.1) current_->addJoint(t, q);
+  }
   current_->addSweep(sweep);
   if (current_->sweeps() < o_.sweeps) return nullptr;
-  std::unique_ptr<HeadCalibrator> full = std::move(current_);
-  // The next window's first sweep starts where this one ended: its joint states from then on.
-  current_ = std::make_unique<HeadCalibrator>(chain_, o_.calibration);
-  for (const auto& [t, q] : recent_)
-    if (t >= sweep.end - 0.1) current_->addJoint(t, q);
-  return full;
+  return std::move(current_);
 }
 
 bool CalibrationWatch::judge(const CalibrationResult& r, std::string& message) const {

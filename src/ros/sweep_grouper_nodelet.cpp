@@ -34,6 +34,7 @@ void SweepGrouperNodelet::onInit() {
   pnh.param<std::string>("joint_name", joint_name_, "head_tilt_joint");
   pnh.param<std::string>("laser_frame", laser_frame_, "laser");
   pnh.param("calibration_check_sweeps", calibration_check_sweeps_, 8);
+  pnh.param("calibration_check_period", calibration_check_period_, 60.0);
   core::GroupingParams& g = sweep_params_.grouping;
   pnh.param("plane_dist_min", g.dist_min, g.dist_min);
   pnh.param("plane_dist_ratio", g.dist_ratio, g.dist_ratio);
@@ -366,6 +367,7 @@ void SweepGrouperNodelet::checkCalibration(const core::SweepResult* sweep) {
     chain.base_to_joint = base * chain.base_to_joint;
     core::CalibrationWatchOptions wo;
     wo.sweeps = calibration_check_sweeps_;
+    wo.period = calibration_check_period_;
     watch_ = std::make_unique<core::CalibrationWatch>(chain, wo);
     return;  // its joint states start now: the next sweep is its first
   }

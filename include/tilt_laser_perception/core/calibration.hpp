@@ -136,6 +136,7 @@ class HeadCalibrator {
 /// For a standing robot (the chain's base fixed); not thread-safe by itself.
 struct CalibrationWatchOptions {
   int sweeps = 8;                   ///< sweeps in a window (half up, half down)
+  double period = 60.0;             ///< a window starts this long after the last one began [s] (the check's cost: once a minute)
   CalibrationOptions calibration = watchDefaults();
   std::array<double, HeadCalibration::kParams> limit{{0.2 * M_PI / 180.0, 0.002, 0.3 * M_PI / 180.0,
                                                      0.3 * M_PI / 180.0}};  ///< drift beyond these is reported [rad, s]
@@ -143,7 +144,7 @@ struct CalibrationWatchOptions {
   /// The estimator's options for a live check: few points a plane (cheap), the rest as calibrate's.
   static CalibrationOptions watchDefaults() {
     CalibrationOptions o;
-    o.max_points_per_plane = 300;
+    o.max_points_per_plane = 150;
     return o;
   }
 };
@@ -153,7 +154,8 @@ class CalibrationWatch {
   explicit CalibrationWatch(const TiltChain& chain, const CalibrationWatchOptions& options = CalibrationWatchOptions());
   void addJoint(double t, double q);
   /// Adds a finished sweep; when it fills the window, returns the window's
-  /// estimator (the joints and sweeps so far) and starts a new window; else null.
+  /// estimator (its joints and sweeps); else null. A window begins with the
+  /// first sweep that starts `period` after the last window began.
   /// The caller solves it (on a thread of its own: it takes tens of milliseconds).
   std::unique_ptr<HeadCalibrator> addSweep(const SweepResult& sweep);
   /// Judges a window's result: true when the head has drifted; `message` says
@@ -163,8 +165,9 @@ class CalibrationWatch {
  private:
   TiltChain chain_;
   CalibrationWatchOptions o_;
-  std::unique_ptr<HeadCalibrator> current_;
+  std::unique_ptr<HeadCalibrator> current_;        ///< the window being collected; null between windows
   std::deque<std::pair<double, double>> recent_;  ///< the last seconds of joint states, for the next window
+  double next_start_ = -1e300;                    ///< the next window's first sweep starts at or after this [s]
 };
 
 }  // namespace core

@@ -84,6 +84,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   std::size_t last_planes_ = 0;
   // The live calibration check (~calibration_check_sweeps; 0: off).
   int calibration_check_sweeps_ = 8;
+  double calibration_check_period_ = 60.0;
   core::TiltChain chain_;
   std::unique_ptr<core::CalibrationWatch> watch_;
   std::future<core::CalibrationResult> check_;
