@@ -98,7 +98,9 @@ int pidOf(const std::string& needle) {
     std::string cmd((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     for (char& c : cmd)
       if (c == '\0') c = ' ';
-    if (cmd.find(needle) != std::string::npos && cmd.find("nodelet manager") != std::string::npos) found = pid;
+    if (cmd.find(needle) != std::string::npos &&
+        (cmd.find("nodelet manager") != std::string::npos || cmd.find("tilt_laser_head") != std::string::npos))
+      found = pid;
   }
   closedir(d);
   return found;
