@@ -44,7 +44,8 @@ label() {
     *tilt_laser_sim*) echo "emulator";;
     *rosmaster*) echo "ros:rosmaster";;
     *rosout*) echo "ros:rosout";;
-    *"nodelet manager"*) echo "nodelet manager (driver, splitter, grouper, neck relay)";;
+    *tilt_laser_head*) echo "tilt_laser_head (driver, splitter, grouper, neck relay)";;
+    *"nodelet manager"*) echo "nodelet manager (driver, splitter, grouper)";;
     *"nodelet load"*) echo "nodelet loader ($(echo "$cmd" | awk '{print $3}' | sed 's|.*/||'))";;
     *robot_state_publisher*) echo "robot_state_publisher";;
     *neck_joint_states*) echo "neck_joint_states.py";;
