@@ -7,8 +7,17 @@
 // the round trip through another process (robot_state_publisher took 3.5 %
 // of a core for this). Joints the URDF does not have are ignored; a joint of
 // the URDF that nobody publishes has no transform, as with
-// robot_state_publisher. Parameters (private): publish_frequency [Hz] (50).
+// robot_state_publisher, except the joints of ~hold: while nobody publishes
+// them (the robot's own joint states: HRP-4's neck) their transforms are
+// given at fixed angles, so that tf always has the chain from base_footprint
+// to the laser; when fresh values come, those drive tf, and after ~hold/timeout
+// without, the fixed angles again (the NeckRelay's job, without its joint
+// state messages). Parameters (private): publish_frequency [Hz] (50);
+// hold/joints, hold/fixed_positions [rad], hold/timeout [s], hold/rate [Hz]
+// (config/neck.yaml).
+#include <algorithm>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -21,6 +30,8 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <urdf/model.h>
+
+#include "tilt_laser_perception/core/joint_hold.hpp"
 
 namespace tilt_laser_perception {
 
@@ -74,10 +85,63 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
         moving_[name] = m;
       }
     }
-    static_broadcaster_.sendTransform(statics);
+    // Created here, not with the object: a nodelet's ROS set-up belongs in onInit.
+    broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+    static_broadcaster_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+    static_broadcaster_->sendTransform(statics);
+    // The held joints (the neck): each with its fixed angle, while nobody gives it.
+    std::vector<std::string> hold;
+    std::vector<double> fixed;
+    double timeout = 0.5, rate = 50.0;
+    pnh.param("hold/joints", hold, std::vector<std::string>());
+    pnh.param("hold/fixed_positions", fixed, std::vector<double>(hold.size(), 0.0));
+    pnh.param("hold/timeout", timeout, 0.5);
+    pnh.param("hold/rate", rate, 50.0);
+    if (fixed.size() != hold.size()) {
+      NODELET_ERROR("~hold/fixed_positions has %zu values for %zu joints: using zeros", fixed.size(), hold.size());
+      fixed.assign(hold.size(), 0.0);
+    }
+    for (std::size_t i = 0; i < hold.size(); ++i) {
+      if (!moving_.count(hold[i])) {
+        NODELET_WARN("~hold: the URDF has no moving joint %s", hold[i].c_str());
+        continue;
+      }
+      held_.push_back(Held{hold[i], fixed[i], core::JointHold(timeout)});
+    }
     sub_ = nh.subscribe("joint_states", 100, &HeadStatePublisherNodelet::onState, this);
-    NODELET_INFO("%s: %zu fixed transforms published, %zu moving joints followed", getName().c_str(), statics.size(),
-                 moving_.size());
+    if (!held_.empty())
+      hold_timer_ = nh.createTimer(ros::Duration(1.0 / std::max(1.0, rate)), &HeadStatePublisherNodelet::onHold, this);
+    NODELET_INFO("%s: %zu fixed transforms published, %zu moving joints followed, %zu held while nobody gives them",
+                 getName().c_str(), statics.size(), moving_.size(), held_.size());
+  }
+
+  /// The transform of a moving joint at a position.
+  geometry_msgs::TransformStamped transform(const Moving& m, double position, const ros::Time& stamp) const {
+    Eigen::Isometry3d T = m.origin;
+    if (m.prismatic) T.translate(m.axis * position);
+    else T.rotate(Eigen::AngleAxisd(position, m.axis));
+    geometry_msgs::TransformStamped t = tf2::eigenToTransform(T);
+    t.header.stamp = stamp;
+    t.header.frame_id = m.parent;
+    t.child_frame_id = m.child;
+    return t;
+  }
+
+  void onHold(const ros::TimerEvent&) {
+    const double now = ros::WallTime::now().toSec();
+    const ros::Time stamp = ros::Time::now();
+    std::vector<geometry_msgs::TransformStamped> out;
+    for (Held& h : held_) {
+      const bool holding = h.hold.holding(now);
+      if (!h.said || holding != h.holding) {
+        if (holding) NODELET_INFO("%s: nobody gives %s: holding it at %.3f rad", getName().c_str(), h.joint.c_str(), h.position);
+        else NODELET_INFO("%s: %s is given: following it", getName().c_str(), h.joint.c_str());
+        h.said = true;
+        h.holding = holding;
+      }
+      if (holding) out.push_back(transform(moving_.at(h.joint), h.position, stamp));
+    }
+    if (!out.empty()) broadcaster_->sendTransform(out);
   }
 
   void onState(const sensor_msgs::JointStateConstPtr& js) {
@@ -91,23 +155,26 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
       if (stamp < m.last) m.last = ros::Time();  // the clock went back (a bag looped): start again
       if (!m.last.isZero() && stamp < m.last + interval_) continue;
       m.last = stamp;
-      Eigen::Isometry3d T = m.origin;
-      if (m.prismatic) T.translate(m.axis * js->position[i]);
-      else T.rotate(Eigen::AngleAxisd(js->position[i], m.axis));
-      geometry_msgs::TransformStamped t = tf2::eigenToTransform(T);
-      t.header.stamp = stamp;
-      t.header.frame_id = m.parent;
-      t.child_frame_id = m.child;
-      out_.push_back(t);
+      out_.push_back(transform(m, js->position[i], stamp));
     }
-    if (!out_.empty()) broadcaster_.sendTransform(out_);
+    for (Held& h : held_)
+      if (std::find(js->name.begin(), js->name.end(), h.joint) != js->name.end()) h.hold.seen(ros::WallTime::now().toSec());
+    if (!out_.empty()) broadcaster_->sendTransform(out_);
   }
 
+  struct Held {
+    std::string joint;
+    double position;
+    core::JointHold hold;
+    bool said = false, holding = true;
+  };
   std::map<std::string, Moving> moving_;
+  std::vector<Held> held_;
+  ros::Timer hold_timer_;
   ros::Duration interval_;
   std::vector<geometry_msgs::TransformStamped> out_;
-  tf2_ros::TransformBroadcaster broadcaster_;
-  tf2_ros::StaticTransformBroadcaster static_broadcaster_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> broadcaster_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_broadcaster_;
   ros::Subscriber sub_;
 };
 
