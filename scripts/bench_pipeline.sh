@@ -44,7 +44,7 @@ label() {
     *tilt_laser_sim*) echo "emulator";;
     *rosmaster*) echo "ros:rosmaster";;
     *rosout*) echo "ros:rosout";;
-    *tilt_laser_head*) echo "tilt_laser_head (driver, splitter, grouper, neck relay)";;
+    *tilt_laser_head*) echo "tilt_laser_head (driver, splitter, grouper, tf)";;
     *"nodelet manager"*) echo "nodelet manager (driver, splitter, grouper)";;
     *"nodelet load"*) echo "nodelet loader ($(echo "$cmd" | awk '{print $3}' | sed 's|.*/||'))";;
     *robot_state_publisher*) echo "robot_state_publisher";;
