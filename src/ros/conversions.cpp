@@ -146,13 +146,14 @@ void segmentMarkers(const ScanSegments& seg, visualization_msgs::MarkerArray& ma
 
 namespace tilt_laser_perception {
 
-namespace {
 Eigen::Isometry3d toIsometry(const urdf::Pose& p) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
   T.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).toRotationMatrix();
   return T;
 }
+
+namespace {
 geometry_msgs::Point32 point32(const Eigen::Vector3d& p) {
   geometry_msgs::Point32 q;
   q.x = static_cast<float>(p.x());

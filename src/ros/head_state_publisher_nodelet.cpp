@@ -32,17 +32,9 @@
 #include <urdf/model.h>
 
 #include "tilt_laser_perception/core/joint_hold.hpp"
+#include "tilt_laser_perception/ros/conversions.hpp"
 
 namespace tilt_laser_perception {
-
-namespace {
-Eigen::Isometry3d toIso(const urdf::Pose& p) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
-  T.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).toRotationMatrix();
-  return T;
-}
-}  // namespace
 
 class HeadStatePublisherNodelet : public nodelet::Nodelet {
  private:
@@ -68,7 +60,7 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     }
     std::vector<geometry_msgs::TransformStamped> statics;
     for (const auto& [name, joint] : model.joints_) {
-      const Eigen::Isometry3d origin = toIso(joint->parent_to_joint_origin_transform);
+      const Eigen::Isometry3d origin = toIsometry(joint->parent_to_joint_origin_transform);
       if (joint->type == urdf::Joint::FIXED) {
         geometry_msgs::TransformStamped t = tf2::eigenToTransform(origin);
         t.header.stamp = ros::Time::now();

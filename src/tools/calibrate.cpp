@@ -27,6 +27,7 @@
 
 #include "bag_pipeline.hpp"
 #include "calibration_yaml.hpp"
+#include "tilt_laser_perception/ros/conversions.hpp"
 #include "tilt_laser_perception/sim/scene.hpp"
 
 using namespace tilt_laser_perception;
@@ -61,8 +62,7 @@ bool correctedUrdf(const std::string& path, const std::string& laser, const core
     return false;
   }
   const urdf::Pose& o = link->parent_joint->parent_to_joint_origin_transform;
-  const Eigen::Quaterniond q0(o.rotation.w, o.rotation.x, o.rotation.y, o.rotation.z);
-  const Eigen::Matrix3d R = q0.toRotationMatrix() * c.mount().linear();
+  const Eigen::Matrix3d R = toIsometry(o).linear() * c.mount().linear();
   // URDF rpy: R = Rz(yaw) Ry(pitch) Rx(roll), pitch within +-90 degrees
   const double roll = std::atan2(R(2, 1), R(2, 2)), pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0)),
                yaw = std::atan2(R(1, 0), R(0, 0));

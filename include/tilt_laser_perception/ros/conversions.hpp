@@ -45,6 +45,9 @@ namespace tilt_laser_perception {
 /// tf), the joint's origin and axis, and the fixed joints from its child link
 /// to `laser_frame`. False with a message when the joint is missing, not
 /// revolute, or a joint between it and the laser is not fixed.
+/// A URDF origin as an isometry.
+Eigen::Isometry3d toIsometry(const urdf::Pose& p);
+
 bool tiltChainFromUrdf(const urdf::Model& model, const std::string& joint, const std::string& laser_frame,
                        core::TiltChain& chain, std::string& parent_link, std::string& error);
 
