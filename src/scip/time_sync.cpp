@@ -36,6 +36,7 @@ void ScanClock::reset() {
   min_rtt_ = 1e9;
   host_per_rev_ = opt_.period_ms * 1e-3;
   g_stream_ = 0.0;
+  since_fit_ = -1;
   offset_ = drift_ppm_ = latency_ = sensor_time_ = 0.0;
   scans_ = missed_ = 0;
 }
@@ -136,7 +137,15 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
   // Sensor time of step 0: a line through (k, stamp + 0.5), narrowed to the
   // offsets every floor allows (floor <= a + p k < floor + 1).
   double a = s_abs + 0.5 - opt_.period_ms * last_k_, p = opt_.period_ms;
-  if (scans_win_.size() >= 8) {
+  // Between fits the last line, while the new stamp's floor allows it.
+  const double predicted = fit_a_ + fit_p_ * last_k_;
+  const bool refit = scans_win_.size() >= 8 &&
+                     (since_fit_ < 0 || since_fit_ + 1 >= kRefitEvery || predicted < s_abs || predicted >= s_abs + 1.0);
+  if (scans_win_.size() >= 8 && !refit) {
+    a = fit_a_;
+    p = fit_p_;
+    ++since_fit_;
+  } else if (refit) {
     fitLine(scans_win_, [](const ScanSample& e) { return e.k; }, [](const ScanSample& e) { return e.s + 0.5; }, a, p);
     // For a rate q, the offsets every floor allows are [lo(q), hi(q)]; its
     // width is concave in q. Take the rate that leaves the widest interval
@@ -162,6 +171,9 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
     p = 0.5 * (q_lo + q_hi);
     interval(p, lo, hi);
     a = 0.5 * (lo + hi) - p * scans_win_.back().k;
+    fit_a_ = a;
+    fit_p_ = p;
+    since_fit_ = 0;
   }
   const double sigma = a + p * last_k_;
   sensor_time_ = origin_ + sigma;
@@ -171,7 +183,8 @@ double ScanClock::stamp(std::uint32_t stamp24, double recv) {
   // arrivals: the earliest in each run of 10 revolutions, jitter only delays).
   // While scans arrive late (a delayed reply within the window), the
   // arrivals tell nothing about the rate: the last rate found is kept.
-  if (delayed_in_window_ == 0 && scans_win_.size() >= 40 && scans_win_.back().r - scans_win_.front().r >= 2.0) {
+  if (since_fit_ == 0 && delayed_in_window_ == 0 && scans_win_.size() >= 40 &&
+      scans_win_.back().r - scans_win_.front().r >= 2.0) {
     std::vector<std::pair<double, double>> minima;  // (k, arrival)
     const double r0 = scans_win_.front().r;
     for (std::size_t start = 0; start < scans_win_.size(); start += 10) {

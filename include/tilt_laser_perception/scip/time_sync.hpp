@@ -123,6 +123,13 @@ class ScanClock {
   double offset_ = 0.0, drift_ppm_ = 0.0, latency_ = 0.0, sensor_time_ = 0.0;
   unsigned long scans_ = 0, jumps_ = 0, missed_ = 0, rejected_ = 0, delayed_ = 0, impossible_ = 0;
   unsigned long delayed_in_window_ = 0;  // late scans in scans_win_ (no per-scan pass over the window)
+  // The phase line (sensor ms of step 0 = a + p k) as last fitted over the
+  // window, and the scans since: the fits pass over the whole window, so
+  // they are made every kRefitEvery scans and in between the line is
+  // extrapolated, as long as it stays within the floors the new stamps allow.
+  static constexpr int kRefitEvery = 8;
+  double fit_a_ = 0.0, fit_p_ = 0.0;
+  int since_fit_ = -1;  // -1: no fit yet
   double last_rejected_rtt_ = 0.0;
 };
 
