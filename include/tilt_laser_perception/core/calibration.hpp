@@ -20,7 +20,8 @@
  * every point about the tilt axis and leaves every plane flat; at one tilt
  * speed, a gear play b looks like a time offset of b / (2 speed) (what the
  * pipeline needs at that speed). A parameter whose standard error exceeds
- * CalibrationOptions::max_standard_error is held at zero and said so.
+ * CalibrationOptions::max_standard_error, or whose fit runs to its bound
+ * (max_abs: a flat direction of the fit), is held at zero and said so.
  */
 #pragma once
 
