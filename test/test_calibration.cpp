@@ -118,8 +118,7 @@ TEST(Calibration, TheEstimateAppliedBringsThePlanesBack) {
   sim::SceneEvalOptions clean = options("stairs", 4, 31, sim::RigErrors());
   sim::SceneEvalOptions wrong = options("stairs", 4, 31, rig);
   sim::SceneEvalOptions known = wrong, fixed = wrong;
-  for (int k = 0; k < 4; ++k) known.calibration[k] = k == 0 ? rig.joint_offset : k == 1 ? rig.time_offset
-                                                     : k == 2 ? rig.mount_roll : rig.mount_yaw;
+  known.calibration = rig.calibration();
   fixed.calibration = r.calibration;
   const auto ec = sim::evaluateScene(clean), ew = sim::evaluateScene(wrong), ek = sim::evaluateScene(known),
              ef = sim::evaluateScene(fixed);

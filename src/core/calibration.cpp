@@ -201,13 +201,21 @@ struct Problem {
     }
   }
 
-  void setReferenceNormals(const HeadCalibration& c) {
-    ref_normal.clear();
-    std::vector<Eigen::Vector3d> p, n, centroid;
+  /// Each group's plane with the points put in 3D at c.
+  void planesAt(const HeadCalibration& c, std::vector<Eigen::Vector3d>& n, std::vector<Eigen::Vector3d>& centroid,
+                std::vector<int>& count) const {
+    std::vector<Eigen::Vector3d> p;
     std::vector<char> valid;
-    std::vector<int> count;
     transform(c, p, valid);
     planes(p, valid, n, centroid, count);
+  }
+
+  /// The groups' normals at c become the reference of their signs.
+  void setReferenceNormals(const HeadCalibration& c) {
+    ref_normal.clear();
+    std::vector<Eigen::Vector3d> n, centroid;
+    std::vector<int> count;
+    planesAt(c, n, centroid, count);
     ref_normal = n;
   }
 };
@@ -379,12 +387,7 @@ CalibrationResult HeadCalibrator::solve() const {
   HeadCalibration zero;
   std::vector<Eigen::Vector3d> n0, c0;
   std::vector<int> cnt0;
-  {
-    std::vector<Eigen::Vector3d> p;
-    std::vector<char> valid;
-    pr.transform(zero, p, valid);
-    pr.planes(p, valid, n0, c0, cnt0);
-  }
+  pr.planesAt(zero, n0, c0, cnt0);
   // The floor: first, in each sweep, the largest patch near z = 0 and near
   // horizontal (with the believed geometry it may be tilted and shifted by
   // the errors; a low step must not be taken for it); after the first pass,
@@ -485,15 +488,11 @@ CalibrationResult HeadCalibrator::solve() const {
   // down sweeps must agree), merged with the pass-1 estimate.
   std::vector<Eigen::Vector3d> n1, c1;
   std::vector<int> cnt1;
-  {
-    std::fill(is_floor.begin(), is_floor.end(), 0);
-    assign(own);
-    pr.setReferenceNormals(fit.c);
-    std::vector<Eigen::Vector3d> p;
-    std::vector<char> valid;
-    pr.transform(fit.c, p, valid);
-    pr.planes(p, valid, n1, c1, cnt1);
-  }
+  std::fill(is_floor.begin(), is_floor.end(), 0);
+  assign(own);
+  pr.ref_normal.clear();
+  pr.planesAt(fit.c, n1, c1, cnt1);
+  pr.ref_normal = n1;  // the signs from the pass-1 estimate
   markFloor(n1, c1, cnt1, o_.merge_angle_deg, o_.merge_distance, false);
   if (free[0] && res.floor_points == 0) {
     res.notes.push_back("joint_offset held: no floor at z = 0 once corrected (a rotation about the tilt axis leaves "

@@ -152,12 +152,6 @@ HeadGeometry HeadGeometry::load(const std::string& path) {
   return g;
 }
 
-Eigen::Isometry3d RigErrors::mount() const {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.rotate(Eigen::AngleAxisd(mount_yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(mount_roll, Eigen::Vector3d::UnitX()));
-  return T;
-}
-
 void setRealistic(RigErrors& rig, NoiseParams& noise) {
   const double deg = M_PI / 180.0;
   rig.tilt_noise = 0.5 * 2.0 * M_PI / 4096.0;  // half an encoder step
@@ -240,7 +234,7 @@ bool SweepController::update(double t, core::Sweep* sweep) {
 
 HeadSimulator::HeadSimulator(const Scene& scene, const HeadGeometry& head, ServoModel& servo,
                              const NoiseParams& noise, std::uint64_t seed, const LidarModel& model, const RigErrors& rig)
-    : scene_(scene), head_(head), servo_(servo), lidar_(scene, model, noise, seed), rig_(rig), mount_(rig.mount()),
+    : scene_(scene), head_(head), servo_(servo), lidar_(scene, model, noise, seed), rig_(rig), mount_(rig.calibration().mount()),
       rng_(seed ^ 0x5eedf00dULL) {
   if (rig_.tilt_noise > 0.0) servo_.setReadingNoise(rig_.tilt_noise, seed ^ 0x7e57ULL);
 }

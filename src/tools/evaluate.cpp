@@ -56,12 +56,7 @@ int main(int argc, char** argv) {
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
   if (o.sweeps < 1 || !(o.profile.speed > 0)) { usage(); return 2; }
-  if (errors_known) {
-    o.calibration.joint_offset = o.rig.joint_offset;
-    o.calibration.time_offset = o.rig.time_offset;
-    o.calibration.mount_roll = o.rig.mount_roll;
-    o.calibration.mount_yaw = o.rig.mount_yaw;
-  }
+  if (errors_known) o.calibration = o.rig.calibration();
   try {
     const auto evals = sim::evaluateScene(o);
     std::printf("%s\n", sim::evalCsvHeader().c_str());

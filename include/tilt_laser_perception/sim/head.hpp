@@ -15,6 +15,7 @@
 
 #include <Eigen/Geometry>
 
+#include "tilt_laser_perception/core/calibration.hpp"
 #include "tilt_laser_perception/core/tilt_profile.hpp"
 #include "tilt_laser_perception/sim/lidar_sim.hpp"
 
@@ -85,8 +86,8 @@ struct RigErrors {
   double mount_roll = 0.0;    ///< laser rotated about its own x axis on the tilt link [rad]
   double mount_yaw = 0.0;     ///< laser rotated about its own z axis on the tilt link [rad]
 
-  /// Rotation of the laser's mount error (yaw about z, then roll about x).
-  Eigen::Isometry3d mount() const;
+  /// The four a calibration estimates (the same conventions): what a perfect calibration gives.
+  core::HeadCalibration calibration() const { return {joint_offset, time_offset, mount_roll, mount_yaw}; }
 };
 
 /// The realistic set (`--realistic`): encoder noise 0.5 step (0.044 deg) and
