@@ -14,6 +14,7 @@ add_library(tlp_core
   ${TLP_ROOT}/src/core/grouping.cpp
   ${TLP_ROOT}/src/core/sweep.cpp
   ${TLP_ROOT}/src/core/height_map.cpp
+  ${TLP_ROOT}/src/core/fused_map.cpp
   ${TLP_ROOT}/src/core/polyline_split.cpp
   ${TLP_ROOT}/src/core/input_check.cpp
   ${TLP_ROOT}/src/core/calibration.cpp)
@@ -35,6 +36,7 @@ add_library(tlp_sim
   ${TLP_ROOT}/src/sim/lidar_sim.cpp
   ${TLP_ROOT}/src/sim/evaluation.cpp
   ${TLP_ROOT}/src/sim/head.cpp
+  ${TLP_ROOT}/src/sim/walk.cpp
   ${TLP_ROOT}/src/sim/utm_emulator.cpp
   ${TLP_ROOT}/src/sim/mx64_emulator.cpp
   ${TLP_ROOT}/src/sim/scene_eval.cpp)

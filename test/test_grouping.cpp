@@ -853,6 +853,98 @@ TEST(SweepAssembler, EveryBeamAtItsOwnTiltExactly) {
   EXPECT_LT(worst, 2e-6);  // float storage of the points: ~1e-7 m
 }
 
+TEST(SweepAssembler, AWalkingBaseMovesEveryBeamToItsOwnTime) {
+  // The base walks at 0.3 m/s, turns at 0.25 rad/s and bobs 1 cm at a step
+  // of 0.8 s while the joint turns at 1 rad/s: each point is where the
+  // base's pose at its own beam's time puts it (within 0.1 mm: the
+  // first-order motion in a scan), not where the pose at the line's middle
+  // would (3 mm and more at the scan's ends).
+  SweepParams p;
+  p.min_lines = 1;
+  TiltChain chain;
+  chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
+  chain.joint_to_laser.translation() = Eigen::Vector3d(0.05, 0, 0.06);
+  const auto base_at = [](double t) {
+    Eigen::Isometry3d b = Eigen::Isometry3d::Identity();
+    b.translation() = Eigen::Vector3d(0.3 * t, 0.0, 0.01 * std::sin(2 * M_PI * t / 0.8));
+    b.linear() = Eigen::AngleAxisd(0.25 * t, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return b;
+  };
+  SweepAssembler a(p, chain, [&](double t, Eigen::Isometry3d& pose) {
+    pose = base_at(t);
+    return SweepAssembler::PoseStatus::Ok;
+  });
+  const auto q_at = [](double t) { return t < 1.0 ? 0.2 + t : (t < 2.0 ? 2.2 - t : t - 1.8); };
+  for (double t = 0.0; t <= 2.3; t += 0.005) a.addJoint(t, q_at(t));
+  LineInput in;
+  in.ranges.assign(1081, 2.0f);
+  in.angle_min = -2.356;
+  in.angle_increment = 0.004363;
+  in.range_max = 30;
+  in.time_increment = 0.000025;
+  for (int k = 0; k < 34; ++k) {
+    LineInput l = in;
+    l.stamp = 1.0 + 0.03 * k + 0.001;
+    l.segments = {{0, 1080}};
+    a.addLine(l, 2.3);
+  }
+  a.addJoint(2.305, q_at(2.305));
+  SweepResult r;
+  ASSERT_TRUE(a.poll(2.31, r));
+  double worst = 0.0, worst_mid = 0.0;
+  for (const SweepLine& l : r.lines)
+    for (int i = 0; i < 1081; ++i) {
+      const double ang = in.angle_min + i * in.angle_increment, t = l.stamp + i * in.time_increment;
+      const Eigen::Vector3d beam(2.0 * std::cos(ang), 2.0 * std::sin(ang), 0.0);
+      const Eigen::Vector3d exact = base_at(t) * chain.laserPose(l.tilt[i]) * beam;
+      const Eigen::Vector3d at_mid = base_at(l.stamp + 540 * in.time_increment) * chain.laserPose(l.tilt[i]) * beam;
+      worst = std::max(worst, (exact - l.points[i].cast<double>()).norm());
+      worst_mid = std::max(worst_mid, (exact - at_mid).norm());
+    }
+  EXPECT_GT(r.lines.size(), 20u);
+  EXPECT_LT(worst, 1e-4);
+  EXPECT_GT(worst_mid, 3e-3);
+  // The laser's origin at the middle beam, from the pose there.
+  const SweepLine& l = r.lines[10];
+  const Eigen::Vector3d o = base_at(l.stamp + 540 * in.time_increment) * chain.laserPose(l.tilt[540]).translation();
+  EXPECT_LT((o - l.origin.cast<double>()).norm(), 1e-4);  // the pose there interpolated: the bob's curvature
+}
+
+TEST(TransformSweep, MovesPointsSegmentsAndPlanesRigidly) {
+  SweepResult s;
+  SweepLine line;
+  line.points = {{1, 0, 0}, {2, 0, 0}, {3, 0, 0.1f}};
+  line.origin = Eigen::Vector3f(0, 0, 1);
+  s.lines.push_back(line);
+  Segment3 seg;
+  ASSERT_TRUE(makeSegment3(line.points, std::vector<float>{1, 2, 3}, 0, 0, 2, seg));
+  seg.origin = Eigen::Vector3d(0, 0, 1);
+  s.segments.push_back(seg);
+  Plane pl;
+  pl.fit.normal = Eigen::Vector3d::UnitZ();
+  pl.fit.centroid = Eigen::Vector3d(2, 0, 0);
+  pl.fit.offset = 0.0;
+  pl.boundary = {{1, -1, 0}, {3, -1, 0}, {3, 1, 0}};
+  s.planes.push_back(pl);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(0.5, -1.0, 0.2);
+  T.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, 0.1, 1.0).normalized()).toRotationMatrix();
+  SweepResult moved = s;
+  transformSweep(moved, T);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_LT((moved.lines[0].points[i].cast<double>() - T * line.points[i].cast<double>()).norm(), 1e-6);
+  EXPECT_LT((moved.segments[0].start - T * seg.start).norm(), 1e-12);
+  EXPECT_LT((moved.segments[0].moments.mean() - T * seg.moments.mean()).norm(), 1e-12);
+  EXPECT_LT((moved.segments[0].origin - T * seg.origin).norm(), 1e-12);
+  // The moved moments fit the moved points as the old ones fit the old.
+  Moments3 direct;
+  for (const auto& p : line.points) direct.add(T * p.cast<double>());
+  EXPECT_LT((moved.segments[0].moments.ss - direct.ss).norm(), 1e-5);
+  EXPECT_LT((moved.planes[0].fit.normal - T.linear() * Eigen::Vector3d::UnitZ()).norm(), 1e-12);
+  EXPECT_NEAR(moved.planes[0].fit.offset, moved.planes[0].fit.normal.dot(T * Eigen::Vector3d(1, -1, 0)), 1e-12);
+  EXPECT_LT((moved.planes[0].boundary[2] - T * Eigen::Vector3d(3, 1, 0)).norm(), 1e-12);
+}
+
 TEST(SequenceGaps, CountsMissedMessagesAndRestarts) {
   SequenceGaps g;
   EXPECT_EQ(g.add(10), 0u);  // the first: nothing known before it

@@ -239,7 +239,29 @@ void SweepAssembler::takeLine(double mid, bool kept) {
   sweep_last_mid_ = mid;
 }
 
-bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base) {
+SweepAssembler::PoseStatus SweepAssembler::lineMotion(const LineInput& in, double mid, LineMotion& motion) const {
+  motion = LineMotion();
+  if (!base_pose_) return PoseStatus::Ok;
+  if (!p_.per_beam || in.ranges.size() < 2 || !(in.time_increment > 0.0)) return base_pose_(mid, motion.mid);
+  // A walking robot's base moves some millimetres during a scan: the pose at
+  // the first and the last beam, and every beam at its own time in between
+  // (to first order: the change in 19 ms is a few millimetres and milliradians).
+  Eigen::Isometry3d first = Eigen::Isometry3d::Identity(), last = Eigen::Isometry3d::Identity();
+  const PoseStatus a = base_pose_(in.stamp, first);
+  if (a == PoseStatus::Missing) return a;
+  const PoseStatus b = base_pose_(in.stamp + (in.ranges.size() - 1) * in.time_increment, last);
+  if (a != PoseStatus::Ok || b != PoseStatus::Ok) return b == PoseStatus::Missing ? b : PoseStatus::Wait;
+  const Eigen::AngleAxisd turn(last.linear() * first.linear().transpose());
+  motion.dp = last.translation() - first.translation();
+  motion.dtheta = turn.angle() * turn.axis();
+  motion.mid = first;
+  motion.mid.translation() += 0.5 * motion.dp;
+  motion.mid.linear() = Eigen::AngleAxisd(0.5 * turn.angle(), turn.axis()) * first.linear();
+  return PoseStatus::Ok;
+}
+
+bool SweepAssembler::process(const LineInput& in, const LineMotion& motion) {
+  const Eigen::Isometry3d& base = motion.mid;
   const double t0 = cpuNow();
   const std::size_t n = in.ranges.size();  // checked in addLine
   SweepLine line;
@@ -265,7 +287,7 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
     }
     q_.assign(n, q0);
   }
-  const Eigen::Vector3d origin = transformBeams(in, base, line);
+  const Eigen::Vector3d origin = transformBeams(in, motion, line);
   line.origin = origin.cast<float>();
   const int index = static_cast<int>(current_.lines.size());
   std::vector<Segment3> segs;
@@ -285,8 +307,9 @@ bool SweepAssembler::process(const LineInput& in, const Eigen::Isometry3d& base)
   return true;
 }
 
-Eigen::Vector3d SweepAssembler::transformBeams(const LineInput& in, const Eigen::Isometry3d& base, SweepLine& line) {
+Eigen::Vector3d SweepAssembler::transformBeams(const LineInput& in, const LineMotion& motion, SweepLine& line) {
   const std::size_t n = in.ranges.size();
+  const Eigen::Isometry3d& base = motion.mid;
   // Beam directions in the joint frame, cached while the scan geometry stays the same.
   if (ux_.size() != n || trig_min_ != in.angle_min || trig_inc_ != in.angle_increment) {
     ux_.resize(n);
@@ -373,6 +396,24 @@ Eigen::Vector3d SweepAssembler::transformBeams(const LineInput& in, const Eigen:
       pz[i] = c[i] * (a20 * vx + a21 * vy + a22 * vz) + s[i] * (b20 * vx + b21 * vy + b22 * vz) + kv * akz + oz;
     }
   }
+  // The base's motion during the scan: beam i moved by f (dp + dtheta x (p - o)),
+  // f its time from the middle beam as a fraction of the scan (first order).
+  const Eigen::Vector3d o_laser = cm * (A * j) + sm * (B * j) + (1.0 - cm) * k.dot(j) * Ak + o;
+  if (motion.moving()) {
+    const float dpx = f(motion.dp.x()), dpy = f(motion.dp.y()), dpz = f(motion.dp.z()), wx = f(motion.dtheta.x()),
+                wy = f(motion.dtheta.y()), wz = f(motion.dtheta.z()), cx = f(base.translation().x()),
+                cy = f(base.translation().y()), cz = f(base.translation().z());
+    const float step = 1.0f / static_cast<float>(n - 1), half = 0.5f * static_cast<float>(n - 1);
+    float *px = px_.data(), *py = py_.data(), *pz = pz_.data();
+#pragma omp simd
+    for (std::size_t i = 0; i < n; ++i) {
+      const float fr = (static_cast<float>(i) - half) * step;
+      const float rx = px[i] - cx, ry = py[i] - cy, rz = pz[i] - cz;
+      px[i] += fr * (dpx + wy * rz - wz * ry);
+      py[i] += fr * (dpy + wz * rx - wx * rz);
+      pz[i] += fr * (dpz + wx * ry - wy * rx);
+    }
+  }
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (std::size_t i = 0; i < n; ++i) {
     const double r = in.ranges[i];
@@ -380,7 +421,7 @@ Eigen::Vector3d SweepAssembler::transformBeams(const LineInput& in, const Eigen:
     line.points[i] = valid ? Eigen::Vector3f(px_[i], py_[i], pz_[i]) : Eigen::Vector3f(nan, nan, nan);
   }
   // The laser's origin (v = j) at the middle beam.
-  return cm * (A * j) + sm * (B * j) + (1.0 - cm) * k.dot(j) * Ak + o;
+  return o_laser;
 }
 
 bool SweepAssembler::poll(double now, SweepResult& out) {
@@ -427,8 +468,8 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       queue_.pop_front();
       continue;
     }
-    Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
-    const PoseStatus pose = base_pose_ ? base_pose_(mid, base) : PoseStatus::Ok;
+    LineMotion motion;
+    const PoseStatus pose = lineMotion(in, mid, motion);
     if (pose == PoseStatus::Wait && now - queue_.front().second <= p_.max_wait) return false;  // wait for tf
     if (last_line_stamp_ > -1e299) {
       intervals_[n_intervals_ % intervals_.size()] = in.stamp - last_line_stamp_;
@@ -450,7 +491,7 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       warning_ = "no pose of the head at the scan's time (tf gap): line dropped";
       if (in_sweep_) takeLine(mid, false);
     } else if (in_sweep_) {
-      takeLine(mid, process(in, base));
+      takeLine(mid, process(in, motion));
     }
     queue_.pop_front();
   }
@@ -471,6 +512,29 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
     reversals_.pop_front();
   }
   return false;
+}
+
+void transformSweep(SweepResult& sw, const Eigen::Isometry3d& T) {
+  const Eigen::Isometry3f Tf = T.cast<float>();
+  for (SweepLine& line : sw.lines) {
+    for (Eigen::Vector3f& p : line.points)
+      if (p.allFinite()) p = Tf * p;
+    line.origin = Tf * line.origin;
+  }
+  for (Segment3& s : sw.segments) {
+    s.start = T * s.start;
+    s.end = T * s.end;
+    s.moments = s.moments.transformed(T);
+    if (s.origin.allFinite()) s.origin = T * s.origin;
+  }
+  for (Plane& pl : sw.planes) {
+    pl.fit.normal = T.linear() * pl.fit.normal;
+    pl.fit.centroid = T * pl.fit.centroid;
+    pl.fit.offset = pl.fit.normal.dot(pl.fit.centroid);
+    for (Eigen::Vector3d& v : pl.boundary) v = T * v;
+    for (auto& hole : pl.holes)
+      for (Eigen::Vector3d& v : hole) v = T * v;
+  }
 }
 
 }  // namespace core

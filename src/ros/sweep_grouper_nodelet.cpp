@@ -57,6 +57,19 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("map_max_slope_deg", map_params_.max_slope_deg, map_params_.max_slope_deg);
   pnh.param("map_max_step_height", map_params_.max_step_height, map_params_.max_step_height);
   pnh.param("map_obstacle_min_height", map_params_.obstacle_min_height, map_params_.obstacle_min_height);
+  core::FusedMapParams fp;
+  pnh.param("fuse_sweeps", fuse_, false);
+  pnh.param<std::string>("robot_frame", robot_frame_, "base_footprint");
+  pnh.param("fused_map_size", fp.size, fp.size);
+  pnh.param("forget_time", fp.forget_time, fp.forget_time);
+  pnh.param("map_sigma_min", fp.sigma_min, fp.sigma_min);
+  pnh.param("map_sigma_range", fp.sigma_range, fp.sigma_range);
+  pnh.param("odom_drift_per_metre", fp.drift_per_metre, fp.drift_per_metre);
+  pnh.param("fusion_gate", fp.gate, fp.gate);
+  if (const std::string bad = fp.validate(); !bad.empty() || fp.size / map_params_.resolution > 4000) {
+    NODELET_ERROR("invalid fused map parameters (%s): using the defaults", bad.empty() ? "more than 4000 cells a side" : bad.c_str());
+    fp = core::FusedMapParams();
+  }
   int max_ranges = static_cast<int>(sweep_params_.scan_limits.max_ranges);
   pnh.param("max_ranges", max_ranges, max_ranges);
   pnh.param("max_scan_duration", sweep_params_.scan_limits.max_duration, sweep_params_.scan_limits.max_duration);
@@ -88,11 +101,13 @@ void SweepGrouperNodelet::onInit() {
   }
   map_params_.width = static_cast<int>(std::lround(size_x / map_params_.resolution));
   map_params_.height = static_cast<int>(std::lround(size_y / map_params_.resolution));
+  if (fuse_) fused_ = std::make_unique<core::FusedHeightMap>(map_params_, fp);
 
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(10.0));
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
 
   planes_pub_ = nh.advertise<PlanePolygonArray>("planes", 2);
+  if (fuse_) terrain_pub_ = nh.advertise<PlanePolygonArray>("terrain_planes", 2, true);
   map_pub_ = nh.advertise<HeightMap>("height_map", 2);
   map_cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("height_map_cloud", 2);
   sweep_cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("sweep_cloud", 2);
@@ -306,10 +321,36 @@ void SweepGrouperNodelet::pollSweeps() {
   takeAssemblerCounts();  // anything dropped (or a restart) since the last look: counted, a throttled warning
 }
 
+void SweepGrouperNodelet::fuseSweep(const core::SweepResult& sweep) {
+  // A recording that starts again (the clock went back): start the map again too.
+  if (sweep.end < last_fused_ - 1.0) {
+    fused_->clear();
+    robot_known_ = false;
+    travelled_ = 0.0;
+  }
+  last_fused_ = sweep.end;
+  try {
+    const Eigen::Vector2d xy =
+        tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, robot_frame_, ros::Time(sweep.end))).translation().head<2>();
+    if (robot_known_) travelled_ += (xy - robot_xy_).norm();
+    robot_xy_ = xy;
+    robot_known_ = true;
+  } catch (const tf2::TransformException& e) {
+    // The map stays where it was (its cells are still right in the fixed frame).
+    warn("no pose of ~robot_frame '" + robot_frame_ + "' in '" + frame_id_ + "' at the sweep's end: the fused map stays where it was (" +
+         e.what() + ")");
+  }
+  fused_->recentre(robot_xy_.x(), robot_xy_.y());
+  Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
+  for (const auto& line : sweep.lines) sensor += line.origin.cast<double>() / static_cast<double>(sweep.lines.size());
+  fused_->addSweep(sweep, sensor, sweep.end, travelled_);
+}
+
 void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   const auto t0 = std::chrono::steady_clock::now();
-  core::HeightMapGrid& grid = grid_;
-  core::buildHeightMap(sweep, map_params_, grid);
+  if (fused_) fuseSweep(sweep);
+  else core::buildHeightMap(sweep, map_params_, grid_);
+  const core::HeightMapGrid& grid = fused_ ? fused_->grid() : grid_;
   std_msgs::Header header;
   header.stamp = ros::Time(sweep.end);
   header.frame_id = frame_id_;
@@ -321,6 +362,14 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   toMsg(grid, *map);
   planes_pub_.publish(planes);
   map_pub_.publish(map);
+  if (fused_) {
+    auto terrain = boost::make_shared<PlanePolygonArray>();
+    terrain->header = header;
+    std::vector<core::Plane> kept;
+    for (const auto& [id, tp] : fused_->planes()) kept.push_back(tp.plane);
+    toMsg(kept, *terrain);
+    terrain_pub_.publish(terrain);
+  }
   last_latency_ms_ = 1e3 * (sweep.finish_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   last_group_ms_ = 1e3 * sweep.group_seconds;
   last_planes_ = sweep.planes.size();

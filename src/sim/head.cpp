@@ -260,7 +260,8 @@ void HeadSimulator::scan(double t0, HeadScan& out) {
   const PoseFunction pose = [&](double t) {
     const int i = static_cast<int>(std::lround((t - t0) / m.timeIncrement()));
     const double tilt = (i >= 0 && i < m.beams) ? out.tilt[i] : servo_.positionAt(t - rig_.time_offset) + rig_.joint_offset;
-    return mounted_off ? Eigen::Isometry3d(head_.laserPose(tilt) * mount_) : head_.laserPose(tilt);
+    const Eigen::Isometry3d laser = mounted_off ? Eigen::Isometry3d(head_.laserPose(tilt) * mount_) : head_.laserPose(tilt);
+    return walk_ ? Eigen::Isometry3d(walk_->truePose(t - t0 + start) * laser) : laser;
   };
   lidar_.scan(t0, pose, out.scan);
 }

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <map>
 #include <set>
+#include <unordered_map>
 
 #include "tilt_laser_perception/dynamixel/mx64.hpp"
 #include "tilt_laser_perception/sim/evaluation.hpp"
@@ -30,6 +31,92 @@ core::TiltChain headChain(const HeadGeometry& g) {
 
 namespace {
 
+/// The scene's true heights on the cell lattice of a resolution (cell (i, j)
+/// centred at ((i + 0.5) r, (j + 0.5) r)): the highest surface above the
+/// centre, ray cast once per cell as maps ask for them. A cell that a
+/// vertical face reaching above `top` crosses (a wall: the head cannot see
+/// its top) is not judged (NaN).
+class TruthHeights {
+ public:
+  TruthHeights(const Scene& scene, double resolution, double top) : scene_(scene), r_(resolution) {
+    for (const Face& f : scene.faces) {
+      if (std::abs(f.normal.z()) > 0.2) continue;
+      double zmax = -1e300;
+      Eigen::Vector2d a(1e300, 0), b(-1e300, 0);
+      for (const Eigen::Vector3d& c : f.corners()) {
+        zmax = std::max(zmax, c.z());
+        if (c.x() < a.x() || (c.x() == a.x() && c.y() < a.y())) a = c.head<2>();
+        if (c.x() > b.x() || (c.x() == b.x() && c.y() > b.y())) b = c.head<2>();
+      }
+      if (zmax > top) walls_.push_back({a, b});
+    }
+  }
+  float at(long i, long j) {
+    const long long key = (static_cast<long long>(i) << 32) ^ static_cast<unsigned int>(j);
+    const auto it = cache_.find(key);
+    if (it != cache_.end()) return it->second;
+    const Eigen::Vector2d c((i + 0.5) * r_, (j + 0.5) * r_);
+    float h = std::numeric_limits<float>::quiet_NaN();
+    bool wall = false;
+    for (const auto& [a, b] : walls_) {
+      const Eigen::Vector2d ab = b - a;
+      const double s = std::clamp((c - a).dot(ab) / std::max(ab.squaredNorm(), 1e-12), 0.0, 1.0);
+      wall = wall || (a + s * ab - c).norm() <= 0.75 * r_;
+    }
+    Hit hit;
+    if (!wall && scene_.raycast(Eigen::Vector3d(c.x(), c.y(), 100.0), -Eigen::Vector3d::UnitZ(), 200.0, hit))
+      h = static_cast<float>(100.0 - hit.t);
+    cache_.emplace(key, h);
+    return h;
+  }
+
+ private:
+  const Scene& scene_;
+  double r_;
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> walls_;  ///< footprints of the tall vertical faces
+  std::unordered_map<long long, float> cache_;
+};
+
+struct MapScore {
+  double rmse = 0.0, coverage = 0.0, front = 0.0;
+};
+
+/// A map against the truth: RMSE and coverage of the cells within `radius`
+/// of the base, and coverage of the front_length x front_width in front of it.
+MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Eigen::Isometry3d& base,
+                  const SceneEvalOptions& o) {
+  const core::HeightMapParams& hp = grid.params;
+  const long i0 = std::lround(hp.origin_x / hp.resolution), j0 = std::lround(hp.origin_y / hp.resolution);
+  const Eigen::Vector2d c = base.translation().head<2>();
+  const Eigen::Vector2d fwd = (base.linear() * Eigen::Vector3d::UnitX()).head<2>().normalized();
+  double se = 0.0;
+  int known = 0, expected = 0, front_known = 0, front_expected = 0;
+  for (int iy = 0; iy < hp.height; ++iy)
+    for (int ix = 0; ix < hp.width; ++ix) {
+      const Eigen::Vector2d d = Eigen::Vector2d(hp.origin_x + (ix + 0.5) * hp.resolution,
+                                                hp.origin_y + (iy + 0.5) * hp.resolution) - c;
+      const double ahead = d.dot(fwd), side = fwd.x() * d.y() - fwd.y() * d.x();
+      const bool front = ahead >= 0.0 && ahead <= o.front_length && std::abs(side) <= 0.5 * o.front_width;
+      const bool near = d.norm() <= o.heightmap_radius;
+      if (!near && !front) continue;
+      const float t = truth.at(i0 + ix, j0 + iy);
+      if (std::isnan(t)) continue;
+      const float h = grid.heights[grid.index(ix, iy)];
+      front_expected += front;
+      front_known += front && !std::isnan(h);
+      if (!near) continue;
+      ++expected;
+      if (std::isnan(h)) continue;
+      ++known;
+      se += (h - t) * (h - t);
+    }
+  MapScore m;
+  m.rmse = known ? std::sqrt(se / known) : 0.0;
+  m.coverage = expected ? static_cast<double>(known) / expected : 0.0;
+  m.front = front_expected ? static_cast<double>(front_known) / front_expected : 0.0;
+  return m;
+}
+
 struct LineTruth {
   std::vector<int> face;
   std::vector<float> ranges;
@@ -39,9 +126,10 @@ struct LineTruth {
   int overhanging = 0;    // segments with own points more than 1 cm beyond their ends
 };
 
-SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const core::SweepResult& sw,
+SweepEval judge(const Scene& scene, TruthHeights& truth_h, const core::SweepResult& sw,
                 const std::map<double, LineTruth>& truth, const std::map<double, double>& split_time,
-                const SceneEvalOptions& o, double latency, core::HeightMapGrid& grid) {
+                const SceneEvalOptions& o, double latency, const Eigen::Isometry3d& base, double travelled,
+                core::HeightMapGrid& grid, core::FusedHeightMap& fused) {
   SweepEval e;
   e.lines = static_cast<int>(sw.lines.size());
   // Points judged: valid returns within the radius; their true face and detected plane.
@@ -75,7 +163,9 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
     edges_hit += es.found;
     for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
       const Eigen::Vector3f& p = sw.lines[li].points[i];
-      if (!std::isfinite(p.x()) || std::hypot(p.x(), p.y()) > o.eval_radius) continue;
+      if (!std::isfinite(p.x()) ||
+          std::hypot(p.x() - base.translation().x(), p.y() - base.translation().y()) > o.eval_radius)
+        continue;
       ov.add(t.face[i], plane_of[li][i]);
     }
   }
@@ -140,28 +230,32 @@ SweepEval judge(const Scene& scene, const std::vector<float>& truth_h, const cor
     }
   }
 
-  // Height map against the true one, within the radius (the grid is kept
-  // from sweep to sweep, as the grouper nodelet keeps it).
+  // The sweep's own map, its origin relative to the base (as today's grouper
+  // keeps it in its frame), and the map fused over sweeps, against the truth.
+  const Eigen::Vector3d at = base.translation();
+  core::HeightMapParams hp = o.heightmap;
+  hp.origin_x = std::round((at.x() + hp.origin_x) / hp.resolution) * hp.resolution;
+  hp.origin_y = std::round((at.y() + hp.origin_y) / hp.resolution) * hp.resolution;
   const double t0 = cpuNow();
-  core::buildHeightMap(sw, o.heightmap, grid);
+  core::buildHeightMap(sw, hp, grid);
   latency += cpuNow() - t0;
   if (!o.dump_prefix.empty()) dumpSweep(sw, grid, o.dump_prefix);
-  const core::HeightMapParams& hp = o.heightmap;
-  double se = 0.0;
-  int known = 0, expected_cells = 0;
-  for (int iy = 0; iy < hp.height; ++iy)
-    for (int ix = 0; ix < hp.width; ++ix) {
-      const double x = hp.origin_x + (ix + 0.5) * hp.resolution, y = hp.origin_y + (iy + 0.5) * hp.resolution;
-      if (std::hypot(x, y) > o.heightmap_radius) continue;
-      const std::size_t c = grid.index(ix, iy);
-      if (std::isnan(truth_h[c])) continue;
-      ++expected_cells;
-      if (std::isnan(grid.heights[c])) continue;
-      ++known;
-      se += (grid.heights[c] - truth_h[c]) * (grid.heights[c] - truth_h[c]);
-    }
-  e.heightmap_rmse_m = known ? std::sqrt(se / known) : 0.0;
-  e.heightmap_coverage = expected_cells ? static_cast<double>(known) / expected_cells : 0.0;
+  const MapScore single = scoreMap(grid, truth_h, base, o);
+  e.heightmap_rmse_m = single.rmse;
+  e.heightmap_coverage = single.coverage;
+  e.front_coverage = single.front;
+  Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
+  for (const auto& line : sw.lines) sensor += line.origin.cast<double>() / sw.lines.size();
+  const double f0 = cpuNow();
+  fused.recentre(at.x(), at.y());
+  fused.addSweep(sw, sensor, sw.end, travelled);
+  e.fused_ms = (cpuNow() - f0) * 1e3;
+  if (!o.dump_prefix.empty()) dumpSweep(sw, fused.grid(), o.dump_prefix + "_fused");
+  const MapScore f = scoreMap(fused.grid(), truth_h, base, o);
+  e.fused_rmse_m = f.rmse;
+  e.fused_coverage = f.coverage;
+  e.fused_front_coverage = f.front;
+  e.travelled_m = travelled;
   double split = 0.0;
   for (const auto& line : sw.lines) {
     const auto it = split_time.find(line.stamp);
@@ -180,8 +274,17 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   ServoModel servo(o.profile.min_angle, 0.0);
   SweepController sweep(servo, o.profile);
   HeadSimulator head_sim(scene, head, servo, o.noise, o.seed, LidarModel(), o.rig);
+  const WalkModel walk(scene, o.walk);
+  if (o.walk.walking()) head_sim.setWalk(&walk);
   const LidarModel& m = head_sim.model();
-  core::SweepAssembler assembler(o.sweep, o.calibration.correct(headChain(head)));
+  // The odometry's pose of the base at every line's time (the tf a robot gives).
+  core::SweepAssembler::BasePose base_pose;
+  if (o.walk.walking() && o.pose_per_line)
+    base_pose = [&walk](double t, Eigen::Isometry3d& pose) {
+      pose = walk.odomPose(t);
+      return core::SweepAssembler::PoseStatus::Ok;
+    };
+  core::SweepAssembler assembler(o.sweep, o.calibration.correct(headChain(head)), base_pose);
   core::ScanSplitter splitter(o.split);
   core::SplitResult split;
   HeadScan hs;
@@ -189,8 +292,8 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   std::map<double, double> split_time;
   std::vector<SweepEval> out;
   core::HeightMapGrid grid;
-  const core::HeightMapParams& hp = o.heightmap;
-  const std::vector<float> truth_h = trueHeightMap(scene, hp.origin_x, hp.origin_y, hp.resolution, hp.width, hp.height);
+  core::FusedHeightMap fused(o.heightmap, o.fused);
+  TruthHeights truth_h(scene, o.heightmap.resolution, head.axis_origin.z());
   double next_joint = 0.0, next_scan = 0.0;
   const double joint_period = 1.0 / o.joint_rate;
   for (double t = 0.0; static_cast<int>(out.size()) < o.sweeps && t < 600.0; t += 0.001) {
@@ -233,8 +336,12 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
     }
     core::SweepResult done;
     while (assembler.poll(t, done)) {
+      const Eigen::Isometry3d end_pose = walk.odomPose(done.end);
+      // Without a pose per line: the sweep as the head saw it, put where the base was at its end.
+      if (o.walk.walking() && !o.pose_per_line) core::transformSweep(done, end_pose);
       if (o.on_sweep) o.on_sweep(done);
-      out.push_back(judge(scene, truth_h, done, truth, split_time, o, done.finish_seconds, grid));
+      out.push_back(judge(scene, truth_h, done, truth, split_time, o, done.finish_seconds, end_pose,
+                          walk.travelled(done.end), grid, fused));
       // Forget the truth of lines before this sweep.
       truth.erase(truth.begin(), truth.lower_bound(done.start));
     }
@@ -265,15 +372,18 @@ void dumpSweep(const core::SweepResult& sw, const core::HeightMapGrid& grid, con
 
 std::string evalCsvHeader() {
   return "sweep,lines,planes,true_faces,correct,over,under,missed,noise,normal_err_deg,offset_err_m,edge_precision,"
-         "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments";
+         "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
+         "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
-  char buf[512];
-  std::snprintf(buf, sizeof(buf), "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d", sweep,
-                e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise, e.normal_err_deg,
-                e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m, e.heightmap_coverage, e.split_ms,
-                e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments);
+  char buf[640];
+  std::snprintf(buf, sizeof(buf),
+                "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f",
+                sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
+                e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
+                e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
+                e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m);
   return buf;
 }
 
@@ -282,7 +392,22 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
   const double n = ev.empty() ? 1.0 : static_cast<double>(ev.size());
   double correct = 0, over = 0, under = 0, missed = 0, noise = 0;
   int veil = 0, overhanging = 0;
+  // The front of the feet is judged once the robot has walked its length
+  // (before, the fused map has only what a standing robot sees): over the
+  // sweeps after 1 m walked, or all when it stands.
+  bool walked = false;
+  for (const SweepEval& e : ev) walked = walked || e.travelled_m > 0.0;
+  double front = 0.0, fused_front = 0.0;
+  int front_n = 0;
   for (const SweepEval& e : ev) {
+    if (!walked || e.travelled_m >= 1.0) {
+      front += e.front_coverage;
+      fused_front += e.fused_front_coverage;
+      ++front_n;
+    }
+    s.fused_rmse_m += e.fused_rmse_m / n;
+    s.fused_coverage += e.fused_coverage / n;
+    s.fused_ms += e.fused_ms / n;
     veil += e.veil_segments;
     overhanging += e.overhanging_segments;
     correct += e.correct;
@@ -300,14 +425,19 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     s.group_ms += e.group_ms / n;
     s.latency_ms += e.latency_ms / n;
   }
-  char buf[512];
+  if (front_n) {
+    front /= front_n;
+    fused_front /= front_n;
+  }
+  char buf[768];
   std::snprintf(buf, sizeof(buf),
                 "correct=%.2f over=%.2f under=%.2f missed=%.2f noise=%.2f normal_err_deg=%.3f offset_err_m=%.4f "
                 "edge_precision=%.3f edge_recall=%.3f heightmap_rmse_m=%.4f heightmap_coverage=%.3f split_ms=%.2f "
-                "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d",
+                "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d front_coverage=%.3f "
+                "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
-                s.latency_ms, veil, overhanging);
+                s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms);
   return buf;
 }
 

@@ -15,13 +15,17 @@ static void usage() {
   std::fprintf(stderr,
                "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--no-skew] [--fixed D]\n"
                "                [--verbose] [--dump PREFIX] [--calibration FILE | --errors-known]\n"
+               "                [--walk SPEED [--path straight|turn|step] [--no-pose] ...]\n"
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
                "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them\n"
                "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n"
                "  --calibration FILE  apply calibrate's estimate (joint offset, time offset, mount) to the believed head\n"
                "  --errors-known      apply the rig errors' own values instead (what a perfect calibration gives)\n"
-               "%s", sim::rigOptionsUsage());
+               "  --no-pose   (walking) every line of a sweep with the odometry's pose at the sweep's end, not its own\n"
+               "  the summary's front_coverage and fused_front_coverage: the single sweep's and the fused map's cells known\n"
+               "  in the 1 m x 1 m in front of the feet, over the sweeps after the robot walked 1 m (all when it stands)\n"
+               "%s%s", sim::rigOptionsUsage(), sim::walkOptionsUsage());
 }
 
 int main(int argc, char** argv) {
@@ -31,7 +35,7 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
     try {
-      if (sim::parseRigOption(argc, argv, i, o.rig, o.noise)) continue;
+      if (sim::parseRigOption(argc, argv, i, o.rig, o.noise) || sim::parseWalkOption(argc, argv, i, o.walk)) continue;
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "evaluate: %s\n", e.what());
       return 2;
@@ -41,6 +45,7 @@ int main(int argc, char** argv) {
     else if (a == "--seed" && v) o.seed = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--speed" && v) o.profile.speed = std::atof(argv[++i]);
     else if (a == "--no-skew") o.sweep.per_beam = false;
+    else if (a == "--no-pose") o.pose_per_line = false;
     else if (a == "--fixed" && v) { o.split.mode = core::SplitMode::Fixed; o.split.d_min = std::atof(argv[++i]); }
     else if (a == "--verbose") verbose = true;
     else if (a == "--dump" && v) o.dump_prefix = argv[++i];

@@ -143,7 +143,18 @@ class SweepAssembler {
   const std::string& lastWarning() const { return warning_; }
 
  private:
-  bool process(const LineInput& in, const Eigen::Isometry3d& base);
+  /// The base's motion within a line: its pose at the middle beam, and the
+  /// change of its position and orientation (rotation vector) from the first
+  /// beam to the last, in the assembly frame (zero when it stands still).
+  struct LineMotion {
+    Eigen::Isometry3d mid = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d dp = Eigen::Vector3d::Zero(), dtheta = Eigen::Vector3d::Zero();
+    bool moving() const { return !dp.isZero(0.0) || !dtheta.isZero(0.0); }
+  };
+  /// The base's pose at the line's first and last beam (one look-up at its
+  /// middle when per_beam is off): Ok, Wait or Missing, the worst of the two.
+  PoseStatus lineMotion(const LineInput& in, double mid, LineMotion& motion) const;
+  bool process(const LineInput& in, const LineMotion& motion);
   /// The clock went back (a recording looped, a simulation restarted): forget
   /// the joints, queued lines and the sweep in progress.
   void restart();
@@ -156,7 +167,7 @@ class SweepAssembler {
   void takeLine(double mid, bool kept);
   void beginSweep(double start);
   /// Puts the line's beams in 3D at their joint angles (q_); returns where the laser was at the middle beam.
-  Eigen::Vector3d transformBeams(const LineInput& in, const Eigen::Isometry3d& base, SweepLine& line);
+  Eigen::Vector3d transformBeams(const LineInput& in, const LineMotion& motion, SweepLine& line);
 
   SweepParams p_;
   TiltChain chain_;
@@ -190,6 +201,11 @@ class SweepAssembler {
   std::vector<float> dq_, c_, s_, px_, py_, pz_;
   double trig_min_ = 0.0, trig_inc_ = 0.0;
 };
+
+/// Moves a finished sweep rigidly (points, origins, segments, planes and their
+/// polygons): p -> T p. What a tool that puts a whole sweep in the world with
+/// one pose does (evaluate --no-pose), and how a sweep changes frame.
+void transformSweep(SweepResult& sweep, const Eigen::Isometry3d& T);
 
 }  // namespace core
 }  // namespace tilt_laser_perception

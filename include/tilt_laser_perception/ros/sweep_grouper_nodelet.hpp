@@ -25,6 +25,7 @@
 
 #include "tilt_laser_perception/ScanSegments.h"
 #include "tilt_laser_perception/core/calibration.hpp"
+#include "tilt_laser_perception/core/fused_map.hpp"
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/core/sequence.hpp"
 #include "tilt_laser_perception/core/sweep.hpp"
@@ -68,12 +69,21 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   core::SweepParams sweep_params_;
   core::HeightMapParams map_params_;
   core::HeightMapGrid grid_;  // reused: no page faults per sweep
+  // ~fuse_sweeps: height_map is the map fused over sweeps, its centre on ~robot_frame.
+  bool fuse_ = false;
+  std::string robot_frame_;
+  std::unique_ptr<core::FusedHeightMap> fused_;
+  Eigen::Vector2d robot_xy_ = Eigen::Vector2d::Zero();
+  bool robot_known_ = false;
+  double travelled_ = 0.0, last_fused_ = -1e300;
+  /// Moves the fused map with the robot and fuses the sweep in.
+  void fuseSweep(const core::SweepResult& sweep);
   std::string frame_id_, joint_name_, laser_frame_, parent_link_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>> sync_;
   ros::Subscriber scan_sub_, segments_sub_, joint_sub_;
-  ros::Publisher planes_pub_, map_pub_, map_cloud_pub_, sweep_cloud_pub_, edges_pub_, markers_pub_;
+  ros::Publisher planes_pub_, terrain_pub_, map_pub_, map_cloud_pub_, sweep_cloud_pub_, edges_pub_, markers_pub_;
   ros::Timer poll_timer_, diag_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTime last_warn_;

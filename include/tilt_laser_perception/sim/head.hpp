@@ -18,6 +18,7 @@
 #include "tilt_laser_perception/core/calibration.hpp"
 #include "tilt_laser_perception/core/tilt_profile.hpp"
 #include "tilt_laser_perception/sim/lidar_sim.hpp"
+#include "tilt_laser_perception/sim/walk.hpp"
 
 namespace tilt_laser_perception {
 namespace sim {
@@ -150,6 +151,9 @@ class HeadSimulator {
   const LidarModel& model() const { return lidar_.model(); }
   const HeadGeometry& head() const { return head_; }
   const RigErrors& rig() const { return rig_; }
+  /// A walking robot (kept by pointer; null: the base stands at the scene's
+  /// origin): every beam from the base's true pose at its own time.
+  void setWalk(const WalkModel* walk) { walk_ = walk; }
 
  private:
   const Scene& scene_;
@@ -161,6 +165,7 @@ class HeadSimulator {
   std::mt19937_64 rng_;
   bool load_set_ = false;
   double load_ = 0.0;  // the laser's side of the gear play [rad]
+  const WalkModel* walk_ = nullptr;
 };
 
 /// The true height map of a scene: for each cell centre, the height of the

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "tilt_laser_perception/core/calibration.hpp"
+#include "tilt_laser_perception/core/fused_map.hpp"
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/sim/head.hpp"
 
@@ -38,7 +39,15 @@ struct SceneEvalOptions {
   core::HeadCalibration calibration;
   core::SplitParams split;
   core::SweepParams sweep;
-  core::HeightMapParams heightmap;
+  core::HeightMapParams heightmap;     ///< the single sweep's map (its origin relative to the robot's base)
+  WalkParams walk;                      ///< the robot walks (default: it stands)
+  /// Each line put in the frame with the odometry's pose at its own time
+  /// (false: every line of a sweep with the pose of the sweep's end, as one
+  /// look-up a sweep gives).
+  bool pose_per_line = true;
+  core::FusedMapParams fused;           ///< the map fused over sweeps (judged beside the single sweep's)
+  double front_length = 1.0;            ///< "in front of the feet": this far ahead of the base ... [m]
+  double front_width = 1.0;             ///< ... and this wide [m]
   std::string head_file;                ///< empty: config/head.yaml
   std::string dump_prefix;              ///< non-empty: the last sweep's planes and height map go to PREFIX_*
   /// Another segmentation to judge in place of the grouping's planes (for
@@ -66,7 +75,11 @@ struct SweepEval {
   int correct = 0, over = 0, under = 0, missed = 0, noise = 0;
   double normal_err_deg = 0.0, offset_err_m = 0.0;  ///< means over correct planes
   double edge_precision = 0.0, edge_recall = 0.0;
-  double heightmap_rmse_m = 0.0, heightmap_coverage = 0.0;
+  double heightmap_rmse_m = 0.0, heightmap_coverage = 0.0;  ///< the sweep's own map, within heightmap_radius of the base
+  double front_coverage = 0.0;        ///< the sweep's own map, in front of the feet (front_length x front_width)
+  double fused_rmse_m = 0.0, fused_coverage = 0.0, fused_front_coverage = 0.0;  ///< the same of the fused map
+  double fused_ms = 0.0;              ///< time to fuse the sweep into the fused map (its own map included)
+  double travelled_m = 0.0;           ///< how far the robot had walked at the sweep's end
   double split_ms = 0.0, group_ms = 0.0, latency_ms = 0.0;
   double external_ms = 0.0;               ///< SceneEvalOptions::segmenter's time
   int veil_segments = 0;                  ///< segments most of whose points are mixed pixels (truth)

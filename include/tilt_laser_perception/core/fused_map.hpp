@@ -1,0 +1,91 @@
+/**
+ * @file fused_map.hpp
+ * @brief A robot-centric height map fused over sweeps, for a robot that walks:
+ *        a square grid in a fixed frame (odom) whose centre follows the
+ *        robot (its cells shifted when the robot moves a cell, never
+ *        recomputed); every cell keeps its height, an uncertainty that grows
+ *        with the range it was seen from and with the distance walked since
+ *        (odometry drifts), and when it was seen. Each sweep's own height map
+ *        (buildHeightMap on the same cells) is fused in: a new height that
+ *        agrees with the old within `gate` standard deviations is averaged
+ *        with it by their variances, one that does not replaces it (the
+ *        newest sweep wins where they disagree: something moved, or the old
+ *        one was wrong); a cell it made no height for but whose points
+ *        disagree with the old height (below it: a ray went through; above
+ *        it: something stands there) is forgotten. Cells not seen for `forget_time` are forgotten. The
+ *        walkable planes keep their ids from sweep to sweep (a new plane
+ *        takes the id of the old one its cells agree with), so a planner can
+ *        step on a tread after it left the laser's view. ROS-free; [m], [s].
+ */
+#pragma once
+
+#include <map>
+#include <vector>
+
+#include "tilt_laser_perception/core/height_map.hpp"
+
+namespace tilt_laser_perception {
+namespace core {
+
+struct FusedMapParams {
+  double size = 6.0;              ///< side of the square grid, centred on the robot [m]
+  double forget_time = 30.0;      ///< cells and planes not seen for this long are forgotten [s]
+  double sigma_min = 0.005;       ///< a cell's height uncertainty seen from up close [m, sigma]
+  double sigma_range = 0.003;     ///< ... and its growth per metre of range [1]
+  double drift_per_metre = 0.01;  ///< odometry's error per metre walked since a cell was seen [1]
+  double gate = 3.0;              ///< a new height within this many sigmas of the old is fused with it [1]
+  double min_plane_overlap = 0.2; ///< a new plane takes an old one's id when this share of its cells agrees with it [1]
+  /// Empty when valid, else a message naming the parameter.
+  std::string validate() const;
+};
+
+/// A walkable plane of the fused map: the newest sweep's plane and polygon
+/// under a persistent id, and when it was last seen.
+struct TerrainPlane {
+  Plane plane;  ///< plane.id is the persistent id
+  double last_seen = 0.0;
+};
+
+class FusedHeightMap {
+ public:
+  /// `cells`: resolution and the classes' thresholds (its origin and size
+  /// are the fused grid's own).
+  FusedHeightMap(const HeightMapParams& cells, const FusedMapParams& params);
+
+  /// Moves the grid so that its centre is at the cell of (x, y); the cells
+  /// that stay in it keep their contents, the new ones are unknown.
+  void recentre(double x, double y);
+  /// Fuses a sweep (planes and points in the map's frame) seen from `sensor`,
+  /// finished at `stamp`, when the robot had walked `travelled` metres in
+  /// all; then forgets what is older than forget_time.
+  void addSweep(const SweepResult& sweep, const Eigen::Vector3d& sensor, double stamp, double travelled);
+  /// Forgets cells and planes last seen before now - forget_time.
+  void forget(double now);
+  void clear();
+
+  /// The map as published: heights, persistent plane ids, classes.
+  const HeightMapGrid& grid() const { return grid_; }
+  /// The sweep's own map of the last addSweep (on the same cells).
+  const HeightMapGrid& lastSweep() const { return sweep_; }
+  /// A cell's uncertainty now [m, sigma]: its own, grown with the distance walked since; NaN unknown.
+  double sigma(std::size_t cell, double travelled) const;
+  /// When a cell was last seen [s] (NaN unknown).
+  double lastSeen(std::size_t cell) const;
+  const std::map<int, TerrainPlane>& planes() const { return planes_; }
+  const FusedMapParams& params() const { return p_; }
+
+ private:
+  FusedMapParams p_;
+  HeightMapGrid grid_, sweep_;
+  std::vector<float> var_;       ///< height variance when last seen [m^2]
+  std::vector<double> seen_;     ///< when last seen [s]
+  std::vector<float> walked_;    ///< distance walked when last seen [m]
+  std::vector<float> pmin_, pmax_;      ///< the sweep's lowest and highest point in each cell (NaN none)
+  std::vector<std::size_t> touched_;    ///< the cells they were set in
+  std::map<int, TerrainPlane> planes_;
+  int next_id_ = 0;
+  bool placed_ = false;
+};
+
+}  // namespace core
+}  // namespace tilt_laser_perception
