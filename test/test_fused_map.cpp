@@ -106,7 +106,7 @@ TEST(FusedHeightMap, ACellSeenTwiceIsTheMeanByItsVariances) {
   m.addSweep(a, near, 1.0, 0.0);
   m.addSweep(b, far, 2.0, 0.0);
   const std::size_t c = cellAt(m.grid(), 1.01, 0.01);
-  const double s1 = f.sigma_min + f.sigma_range * 1.0, s2 = f.sigma_min + f.sigma_range * std::hypot(3.0, 0.01);
+  const double s1 = std::hypot(f.sigma_min, f.sigma_range * 1.0), s2 = std::hypot(f.sigma_min, f.sigma_range * std::hypot(3.0, 0.01));
   const double v1 = s1 * s1, v2 = s2 * s2;
   EXPECT_NEAR(m.grid().heights[c], (0.000 * v2 + 0.010 * v1) / (v1 + v2), 1e-5);  // 3.1 mm: nearer the close look
   EXPECT_NEAR(m.sigma(c, 0.0), std::sqrt(v1 * v2 / (v1 + v2)), 1e-5);
@@ -127,7 +127,7 @@ TEST(FusedHeightMap, TheNewestSweepWinsWhereTheyDisagree) {
   m.addSweep(b, Eigen::Vector3d(0, 0, 1.4), 2.0, 0.0);
   const std::size_t c = cellAt(m.grid(), 1.0, 0.0);
   EXPECT_NEAR(m.grid().heights[c], 0.12, 1e-6);
-  const double s = fusedParams().sigma_min + fusedParams().sigma_range * std::hypot(1.01, 0.01, 1.28);
+  const double s = std::hypot(fusedParams().sigma_min, fusedParams().sigma_range * std::hypot(1.01, 0.01, 1.28));
   EXPECT_NEAR(m.sigma(c, 0.0), s, 1e-6);  // its own uncertainty, not a fused one
   EXPECT_NE(m.grid().plane_ids[c], 0);   // not the old plane: a new id
   EXPECT_EQ(m.planes().size(), 2u);      // the old one is kept until forgotten

@@ -49,7 +49,8 @@ void FusedHeightMap::clear() {
   grid_.floor_plane = -1;
   grid_.floor_height = std::numeric_limits<double>::quiet_NaN();
   var_.assign(cells, kNaN);
-  seen_.assign(cells, std::numeric_limits<double>::quiet_NaN());
+  seen_.assign(cells, kNaN);
+  have_epoch_ = false;
   walked_.assign(cells, 0.0f);
   planes_.clear();
 }
@@ -84,8 +85,7 @@ void FusedHeightMap::recentre(double x, double y) {
   shiftGrid(grid_.plane_ids, w, h, dx, dy, -1, si);
   std::vector<CellClass> sc;
   shiftGrid(grid_.classes, w, h, dx, dy, CellClass::Unknown, sc);
-  std::vector<double> sd;
-  shiftGrid(seen_, w, h, dx, dy, std::numeric_limits<double>::quiet_NaN(), sd);
+  shiftGrid(seen_, w, h, dx, dy, kNaN, sf);
 }
 
 double FusedHeightMap::sigma(std::size_t c, double travelled) const {
@@ -94,79 +94,68 @@ double FusedHeightMap::sigma(std::size_t c, double travelled) const {
   return std::sqrt(var_[c] + drift * drift);
 }
 
-double FusedHeightMap::lastSeen(std::size_t c) const { return seen_[c]; }
+double FusedHeightMap::lastSeen(std::size_t c) const { return epoch_ + seen_[c]; }
 
 void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& sensor, double stamp, double travelled) {
   placed_ = true;
+  if (!have_epoch_) {
+    epoch_ = stamp;
+    have_epoch_ = true;
+  }
+  const float now = static_cast<float>(stamp - epoch_);
   const HeightMapParams& g = grid_.params;
   buildHeightMap(sweep, g, sweep_);
   const float gate2 = static_cast<float>(p_.gate * p_.gate);
   const float sigma_floor2 = static_cast<float>(0.25 * p_.sigma_min * p_.sigma_min);
-  const float tolerance = static_cast<float>(g.obstacle_min_height);
 
-  // The cells the sweep's points fell in (mixed pixels aside), with their
-  // lowest and highest point, and the box around them: what the sweep saw.
+  // The box of cells the sweep's map can have touched: its walkable planes'
+  // polygons and its points (clipped to the grid).
   int bx0 = g.width, by0 = g.height, bx1 = -1, by1 = -1;
-  for (std::size_t c : touched_) {
-    pmin_[c] = kNaN;
-    pmax_[c] = kNaN;
-  }
-  touched_.clear();
-  if (pmin_.size() != grid_.heights.size()) {
-    pmin_.assign(grid_.heights.size(), kNaN);
-    pmax_.assign(grid_.heights.size(), kNaN);
-  }
-  const float inv_res = static_cast<float>(1.0 / g.resolution), ox = static_cast<float>(g.origin_x),
-              oy = static_cast<float>(g.origin_y);
-  for (const SweepLine& line : sweep.lines) {
-    std::size_t ei = 0;
-    for (std::size_t i = 0; i < line.points.size(); ++i) {
-      const Eigen::Vector3f& q = line.points[i];
-      const float fx = (q.x() - ox) * inv_res, fy = (q.y() - oy) * inv_res;  // NaN fails the tests below
-      if (!(fx >= 0.0f && fy >= 0.0f && fx < g.width && fy < g.height)) continue;
-      while (ei < line.edges.size() && line.edges[ei].first < static_cast<int>(i)) ++ei;
-      if (ei < line.edges.size() && line.edges[ei].first == static_cast<int>(i) && line.edges[ei].second == EdgeKind::Veil)
-        continue;
-      const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-      const std::size_t c = grid_.index(ix, iy);
-      if (std::isnan(pmin_[c])) {
-        pmin_[c] = pmax_[c] = q.z();
-        touched_.push_back(c);
-      } else {
-        pmin_[c] = std::min(pmin_[c], q.z());
-        pmax_[c] = std::max(pmax_[c], q.z());
-      }
-      bx0 = std::min(bx0, ix);
-      bx1 = std::max(bx1, ix);
-      by0 = std::min(by0, iy);
-      by1 = std::max(by1, iy);
-    }
-  }
-  // The walkable planes' polygons reach past their points (to the rays that bound them).
-  for (const Plane& pl : sweep.planes)
-    for (const Eigen::Vector3d& v : pl.boundary) {
-      const int ix = static_cast<int>(std::floor((v.x() - g.origin_x) * inv_res)),
-                iy = static_cast<int>(std::floor((v.y() - g.origin_y) * inv_res));
-      bx0 = std::min(bx0, ix);
-      bx1 = std::max(bx1, ix);
-      by0 = std::min(by0, iy);
-      by1 = std::max(by1, iy);
-    }
-  bx0 = std::max(bx0, 0);
-  by0 = std::max(by0, 0);
-  bx1 = std::min(bx1, g.width - 1);
-  by1 = std::min(by1, g.height - 1);
-
-  // The variance of each new cell's height: it grows with the range it was seen from.
-  const auto newVariance = [&](int ix, int iy, float z) {
-    const double dx = g.origin_x + (ix + 0.5) * g.resolution - sensor.x(),
-                 dy = g.origin_y + (iy + 0.5) * g.resolution - sensor.y(), dz = z - sensor.z();
-    const double s = p_.sigma_min + p_.sigma_range * std::sqrt(dx * dx + dy * dy + dz * dz);
-    return static_cast<float>(s * s);
+  const double inv_res = 1.0 / g.resolution;
+  const auto extend = [&](double x, double y) {
+    const double fx = (x - g.origin_x) * inv_res, fy = (y - g.origin_y) * inv_res;
+    if (!(fx > -1.0 && fy > -1.0 && fx < g.width + 1.0 && fy < g.height + 1.0)) return;  // NaN too
+    bx0 = std::min(bx0, static_cast<int>(fx));
+    bx1 = std::max(bx1, static_cast<int>(fx));
+    by0 = std::min(by0, static_cast<int>(fy));
+    by1 = std::max(by1, static_cast<int>(fy));
   };
+  for (const Plane& pl : sweep.planes)
+    for (const Eigen::Vector3d& v : pl.boundary) extend(v.x(), v.y());
+  for (const SweepLine& line : sweep.lines) {
+    float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+    for (const Eigen::Vector3f& q : line.points) {  // NaN compares false
+      x0 = q.x() < x0 ? q.x() : x0;
+      x1 = q.x() > x1 ? q.x() : x1;
+      y0 = q.y() < y0 ? q.y() : y0;
+      y1 = q.y() > y1 ? q.y() : y1;
+    }
+    if (!(x1 >= x0)) continue;
+    const double lo_x = std::max<double>(x0, g.origin_x), hi_x = std::min<double>(x1, g.origin_x + g.width * g.resolution - 1e-9),
+                 lo_y = std::max<double>(y0, g.origin_y), hi_y = std::min<double>(y1, g.origin_y + g.height * g.resolution - 1e-9);
+    if (lo_x > hi_x || lo_y > hi_y) continue;
+    extend(lo_x, lo_y);
+    extend(hi_x, hi_y);
+  }
+  bx0 = std::max(bx0 - 1, 0);
+  by0 = std::max(by0 - 1, 0);
+  bx1 = std::min(bx1 + 1, g.width - 1);
+  by1 = std::min(by1 + 1, g.height - 1);
+
+  // The variance of a new height grows with the range it was seen from
+  // (sigma_min and sigma_range * range added in quadrature); an old one's
+  // with the distance walked since.
+  const float s0 = static_cast<float>(p_.sigma_min * p_.sigma_min), k2 = static_cast<float>(p_.sigma_range * p_.sigma_range);
+  const float sx = static_cast<float>(sensor.x() - g.origin_x), sy = static_cast<float>(sensor.y() - g.origin_y),
+              sz = static_cast<float>(sensor.z()), res = static_cast<float>(g.resolution);
+  const auto newVariance = [&](int ix, int iy, float z) {
+    const float dx = (ix + 0.5f) * res - sx, dy = (iy + 0.5f) * res - sy, dz = z - sz;
+    return s0 + k2 * (dx * dx + dy * dy + dz * dz);
+  };
+  const float drift = static_cast<float>(p_.drift_per_metre), walked_now = static_cast<float>(travelled);
   const auto oldVariance = [&](std::size_t c) {
-    const float drift = static_cast<float>(p_.drift_per_metre) * std::max(0.0f, static_cast<float>(travelled) - walked_[c]);
-    return var_[c] + drift * drift;
+    const float d = drift * std::max(0.0f, walked_now - walked_[c]);
+    return var_[c] + d * d;
   };
 
   // Persistent plane ids: each new walkable plane votes with its cells (every
@@ -174,8 +163,8 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
   // id with most votes when they are min_plane_overlap of its cells, and no
   // other new plane took more of that id's (one new plane per old id; the
   // rest get new ids).
-  std::map<int, int> size;                   // new plane -> cells sampled
-  std::map<std::pair<int, int>, int> votes;  // (new, old) -> agreeing cells sampled
+  std::vector<int> size(sweep.planes.size(), 0);  // new plane -> cells sampled
+  std::map<std::pair<int, int>, int> votes;       // (new, old) -> agreeing cells sampled
   for (int iy = by0; iy <= by1; iy += 4)
     for (int ix = bx0; ix <= bx1; ix += 4) {
       const std::size_t c = grid_.index(ix, iy);
@@ -191,47 +180,22 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
   for (const auto& [key, n] : votes)
     if (n >= p_.min_plane_overlap * size[key.first]) ranked.push_back({n, key});
   std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-  std::vector<int> id_of(sweep.planes.size() + 1, -1);  // new plane -> persistent id
-  std::map<int, int> taken;                             // persistent id -> new plane
+  std::vector<int> id_of(sweep.planes.size(), -1);  // new plane -> persistent id
+  std::map<int, int> taken;                         // persistent id -> new plane
   for (const auto& [n, key] : ranked)
     if (id_of[key.first] < 0 && !taken.count(key.second)) {
       id_of[key.first] = key.second;
       taken[key.second] = key.first;
     }
-  // Small planes may have no sampled cell: every plane that has cells gets an id.
-  for (int iy = by0; iy <= by1; ++iy)
-    for (int ix = bx0; ix <= bx1; ++ix) {
-      const int pn = sweep_.plane_ids[grid_.index(ix, iy)];
-      if (pn >= 0 && id_of[pn] < 0) id_of[pn] = next_id_++;
-    }
-  for (const Plane& pl : sweep.planes) {
-    if (pl.id < 0 || pl.id >= static_cast<int>(id_of.size()) || id_of[pl.id] < 0) continue;
-    TerrainPlane& tp = planes_[id_of[pl.id]];
-    tp.plane = pl;
-    tp.plane.id = id_of[pl.id];
-    tp.plane.members.clear();
-    tp.last_seen = stamp;
-  }
 
-  // Fuse every cell the sweep saw. A cell it made no height for keeps its old
-  // one unless the sweep's points in it disagree with that (a point well
-  // below the old surface went through it; one well above stands on it): a
-  // polygon that reached too far in an earlier sweep is taken back so.
-  for (int iy = by0; iy <= by1; ++iy)
+  // Fuse every cell the sweep made a height for.
+  for (int iy = by0; iy <= by1; ++iy) {
+    const std::size_t row = grid_.index(0, iy);
     for (int ix = bx0; ix <= bx1; ++ix) {
-      const std::size_t c = grid_.index(ix, iy);
-      const float hn = sweep_.heights[c], ho = grid_.heights[c];
-      if (std::isnan(hn)) {
-        if (!std::isnan(ho) && !std::isnan(pmin_[c]) && (pmin_[c] < ho - tolerance || pmax_[c] > ho + tolerance)) {
-          grid_.heights[c] = kNaN;
-          grid_.plane_ids[c] = -1;
-          grid_.classes[c] = CellClass::Unknown;
-          var_[c] = kNaN;
-          seen_[c] = std::numeric_limits<double>::quiet_NaN();
-        }
-        continue;
-      }
-      const float vn = newVariance(ix, iy, hn);
+      const std::size_t c = row + ix;
+      const float hn = sweep_.heights[c];
+      if (std::isnan(hn)) continue;
+      const float vn = newVariance(ix, iy, hn), ho = grid_.heights[c];
       float h = hn, v = vn;
       if (!std::isnan(ho) && grid_.classes[c] == sweep_.classes[c]) {
         const float vo = oldVariance(c), d = hn - ho;
@@ -242,31 +206,71 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
       }
       grid_.heights[c] = h;
       var_[c] = v;
-      seen_[c] = stamp;
-      walked_[c] = static_cast<float>(travelled);
+      seen_[c] = now;
+      walked_[c] = walked_now;
       grid_.classes[c] = sweep_.classes[c];
       const int pn = sweep_.plane_ids[c];
+      if (pn >= 0 && id_of[pn] < 0) id_of[pn] = next_id_++;  // a new plane (or one too small to be sampled)
       grid_.plane_ids[c] = pn >= 0 ? id_of[pn] : -1;
     }
+  }
+  for (const Plane& pl : sweep.planes) {
+    if (pl.id < 0 || pl.id >= static_cast<int>(id_of.size()) || id_of[pl.id] < 0) continue;
+    TerrainPlane& tp = planes_[id_of[pl.id]];
+    tp.plane = pl;
+    tp.plane.id = id_of[pl.id];
+    tp.plane.members.clear();
+    tp.last_seen = stamp;
+  }
   if (sweep_.floor_plane >= 0) {
     grid_.floor_plane = id_of[sweep_.floor_plane];
     grid_.floor_height = sweep_.floor_height;
+  }
+
+  // A cell the sweep made no height for keeps its old one unless the sweep's
+  // points in it disagree with it by more than obstacle_min_height (below
+  // it: a ray went through the old surface; above it: something stands
+  // there, or a riser rises): a polygon that reached too far in an earlier
+  // sweep is taken back so. Mixed pixels say nothing.
+  const float tolerance = static_cast<float>(g.obstacle_min_height), ox = static_cast<float>(g.origin_x),
+              oy = static_cast<float>(g.origin_y), inv_r = static_cast<float>(inv_res);
+  for (const SweepLine& line : sweep.lines) {
+    std::size_t ei = 0;
+    for (std::size_t i = 0; i < line.points.size(); ++i) {
+      const Eigen::Vector3f& q = line.points[i];
+      const float fx = (q.x() - ox) * inv_r, fy = (q.y() - oy) * inv_r;
+      if (!(fx >= 0.0f && fy >= 0.0f && fx < g.width && fy < g.height)) continue;  // NaN too
+      const std::size_t c = grid_.index(static_cast<int>(fx), static_cast<int>(fy));
+      const float ho = grid_.heights[c];
+      if (!std::isnan(sweep_.heights[c]) || std::isnan(ho) || std::abs(q.z() - ho) <= tolerance) continue;
+      while (ei < line.edges.size() && line.edges[ei].first < static_cast<int>(i)) ++ei;
+      if (ei < line.edges.size() && line.edges[ei].first == static_cast<int>(i) && line.edges[ei].second == EdgeKind::Veil)
+        continue;
+      grid_.heights[c] = kNaN;
+      grid_.plane_ids[c] = -1;
+      grid_.classes[c] = CellClass::Unknown;
+      var_[c] = kNaN;
+      seen_[c] = kNaN;
+    }
   }
   forget(stamp);
 }
 
 void FusedHeightMap::forget(double now) {
-  const double before = now - p_.forget_time;
-  for (std::size_t c = 0; c < grid_.heights.size(); ++c)
-    if (seen_[c] < before) {  // NaN (never seen) is not
+  const float before = static_cast<float>(now - p_.forget_time - epoch_);
+  const std::size_t n = seen_.size();
+  const float* seen = seen_.data();
+  // Most cells are recent or never seen: one compare each, then the few to forget.
+  for (std::size_t c = 0; c < n; ++c)
+    if (seen[c] < before) {  // NaN (never seen) is not
       grid_.heights[c] = kNaN;
       grid_.plane_ids[c] = -1;
       grid_.classes[c] = CellClass::Unknown;
       var_[c] = kNaN;
-      seen_[c] = std::numeric_limits<double>::quiet_NaN();
+      seen_[c] = kNaN;
     }
   for (auto it = planes_.begin(); it != planes_.end();)
-    it = it->second.last_seen < before ? planes_.erase(it) : std::next(it);
+    it = it->second.last_seen < now - p_.forget_time ? planes_.erase(it) : std::next(it);
 }
 
 }  // namespace core

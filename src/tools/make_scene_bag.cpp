@@ -28,7 +28,8 @@ void usage() {
                "usage: make_scene_bag --scene NAME --out BAG [--duration S] [--seed N] [--min-deg D] [--max-deg D]\n"
                "                      [--speed RAD_PER_S] [--truth] [--head FILE] [--noise datasheet|percent|none]\n"
                "  defaults: 5 s, seed 1, tilt 10..60 deg at 1 rad/s, no truth\n"
-               "%s", sim::rigOptionsUsage());
+               "  walking (--walk ...): the odometry's odom -> base_footprint on /tf at 100 Hz\n"
+               "%s%s", sim::rigOptionsUsage(), sim::walkOptionsUsage());
 }
 
 geometry_msgs::TransformStamped transform(const std::string& parent, const std::string& child, const ros::Time& t,
@@ -56,11 +57,12 @@ int main(int argc, char** argv) {
   bool with_truth = false;
   sim::NoiseParams noise;
   sim::RigErrors rig;
+  sim::WalkParams walk_params;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
     try {
-      if (sim::parseRigOption(argc, argv, i, rig, noise)) continue;
+      if (sim::parseRigOption(argc, argv, i, rig, noise) || sim::parseWalkOption(argc, argv, i, walk_params)) continue;
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "make_scene_bag: %s\n", e.what());
       return 2;
@@ -94,6 +96,8 @@ int main(int argc, char** argv) {
     profile.speed = speed;
     sim::SweepController sweep(servo, profile);
     sim::HeadSimulator head_sim(scene, head, servo, noise, seed, sim::LidarModel(), rig);
+    const sim::WalkModel walk(scene, walk_params);
+    if (walk_params.walking()) head_sim.setWalk(&walk);
     const sim::LidarModel& m = head_sim.model();
 
     rosbag::Bag bag(out, rosbag::bagmode::Write);
@@ -134,6 +138,8 @@ int main(int argc, char** argv) {
         Eigen::Isometry3d R = Eigen::Isometry3d::Identity();
         R.rotate(Eigen::AngleAxisd(q + head.tilt_offset, Eigen::Vector3d::UnitY()));
         tf.transforms.push_back(transform("head_tilt_base", "head_tilt_link", stamp(t), R));
+        // A walking robot's state estimate: where its odometry puts the base.
+        if (walk_params.walking()) tf.transforms.push_back(transform("odom", "base_footprint", stamp(t), walk.odomPose(t)));
         bag.write("/tf", stamp(t), tf);
         next_js += js_period;
       }

@@ -30,8 +30,8 @@ namespace core {
 struct FusedMapParams {
   double size = 6.0;              ///< side of the square grid, centred on the robot [m]
   double forget_time = 30.0;      ///< cells and planes not seen for this long are forgotten [s]
-  double sigma_min = 0.005;       ///< a cell's height uncertainty seen from up close [m, sigma]
-  double sigma_range = 0.003;     ///< ... and its growth per metre of range [1]
+  double sigma_min = 0.005;       ///< a cell's height uncertainty seen from up close [m, sigma] ...
+  double sigma_range = 0.003;     ///< ... and per metre of range [1] (the two added in quadrature)
   double drift_per_metre = 0.01;  ///< odometry's error per metre walked since a cell was seen [1]
   double gate = 3.0;              ///< a new height within this many sigmas of the old is fused with it [1]
   double min_plane_overlap = 0.2; ///< a new plane takes an old one's id when this share of its cells agrees with it [1]
@@ -78,10 +78,10 @@ class FusedHeightMap {
   FusedMapParams p_;
   HeightMapGrid grid_, sweep_;
   std::vector<float> var_;       ///< height variance when last seen [m^2]
-  std::vector<double> seen_;     ///< when last seen [s]
+  std::vector<float> seen_;      ///< when last seen, after epoch_ [s] (float: a millisecond after 4 hours)
+  double epoch_ = 0.0;
+  bool have_epoch_ = false;
   std::vector<float> walked_;    ///< distance walked when last seen [m]
-  std::vector<float> pmin_, pmax_;      ///< the sweep's lowest and highest point in each cell (NaN none)
-  std::vector<std::size_t> touched_;    ///< the cells they were set in
   std::map<int, TerrainPlane> planes_;
   int next_id_ = 0;
   bool placed_ = false;

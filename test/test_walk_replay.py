@@ -1,0 +1,98 @@
+"""A walking robot, recorded and replayed: make_scene_bag --walk writes a
+simulated walk of 0.3 m/s towards the stairs (with the gait's bob, sway, yaw
+and roll, and the odometry on /tf); replay.launch frame_id:=odom fuse:=true
+runs the splitter and the grouper on it. In the odom frame the surfaces stay
+where they are while the robot walks 2.4 m: the floor at z = 0, the first
+tread at its place; the walkable planes keep their ids from sweep to sweep;
+the fused height map follows the robot and knows the ground in front of its
+feet, which the tilted laser cannot see from where the robot is.
+
+Run by ctest (CMakeLists.txt, TLP_BIN set); by hand:
+TLP_BIN=build_ws/build/tilt_laser_perception/devel/lib/tilt_laser_perception python3 -m pytest test/test_walk_replay.py
+(with the workspace sourced)."""
+import math
+import os
+import random
+import subprocess
+import tempfile
+import time
+
+import rosbag
+
+from test_record_replay import roslaunch, stop
+
+SPEED, START_X, DURATION = 0.3, -1.5, 8.0
+
+
+def base_x(t):
+    return START_X + SPEED * t
+
+
+def test_a_walk_replayed_in_odom():
+    work = tempfile.mkdtemp(prefix="tlp_walk_")
+    walk_bag = os.path.join(work, "walk.bag")
+    subprocess.run([os.path.join(os.environ["TLP_BIN"], "make_scene_bag"), "--scene", "stairs", "--out", walk_bag,
+                    "--duration", str(DURATION), "--walk", str(SPEED), "--start", f"{START_X},0"],
+                   check=True, stdout=subprocess.DEVNULL)
+    port = 14000 + random.randrange(2000)
+    out_bag = os.path.join(work, "replay.bag")
+    with open(os.path.join(work, "replay.log"), "w") as log:
+        replay = roslaunch(port, "replay.launch", f"bag:={walk_bag}", "frame_id:=odom", "fuse:=true", log=log)
+        env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
+        rec = None
+        try:
+            time.sleep(0.5)
+            rec = subprocess.Popen(["rosbag", "record", "-O", out_bag, "/planes", "/terrain_planes", "/height_map"],
+                                   env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+            time.sleep(DURATION + 5.0)
+        finally:
+            if rec:
+                stop(rec)
+            stop(replay)
+    with rosbag.Bag(walk_bag) as b:
+        t0 = b.get_start_time()
+    planes, terrain, maps = [], [], []
+    with rosbag.Bag(out_bag) as b:
+        for topic, msg, _ in b.read_messages():
+            {"/planes": planes, "/terrain_planes": terrain, "/height_map": maps}[topic].append(msg)
+    assert len(planes) >= 6, f"{len(planes)} sweeps replayed (log: {work}/replay.log)"
+    assert len(maps) == len(planes) and len(terrain) == len(planes)
+
+    # The floor at z = 0 and the first tread (x 1.2-1.5 m, z 0.15 m) where they are, in every sweep.
+    treads = 0
+    for msg in planes:
+        assert msg.header.frame_id == "odom"
+        level = [p for p in msg.planes if p.normal.z > 0.995]
+        floor = max(level, key=lambda p: p.point_count)
+        assert abs(floor.offset) < 0.01, f"floor at {floor.offset:.3f} m"
+        for p in level:
+            if abs(p.offset - 0.15) < 0.02 and p.area > 0.05:
+                treads += 1
+                assert 1.2 < p.centroid.x < 1.5, f"tread1 at x = {p.centroid.x:.2f} m"
+    assert treads >= 4, f"the first tread in {treads} sweeps"
+
+    # The walkable planes keep their ids: the floor's is the same in every sweep.
+    floor_ids = set()
+    for msg in terrain:
+        level = [p for p in msg.planes if p.normal.z > 0.995 and abs(p.offset) < 0.02]
+        floor_ids.add(max(level, key=lambda p: p.area).id)
+    assert len(floor_ids) == 1, f"the floor's id changed: {floor_ids}"
+
+    # The fused map is centred on the robot and knows the ground in front of its feet.
+    last = maps[-1]
+    x = base_x(last.header.stamp.to_sec() - t0)
+    r = last.resolution
+    centre_x = last.origin.position.x + 0.5 * last.width * r
+    assert abs(centre_x - x) < 0.02, f"map centre {centre_x:.3f}, robot at {x:.3f}"
+    known = total = 0
+    for iy in range(last.height):
+        y = last.origin.position.y + (iy + 0.5) * r
+        if abs(y) > 0.5:
+            continue
+        for ix in range(last.width):
+            cx = last.origin.position.x + (ix + 0.5) * r
+            if x <= cx <= x + 1.0:
+                total += 1
+                known += not math.isnan(last.heights[iy * last.width + ix])
+    print(f"{len(planes)} sweeps; the 1 m in front of the feet {known / total:.1%} known")
+    assert known / total >= 0.9, f"{known} of {total} cells in front of the feet known"
