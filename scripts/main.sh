@@ -48,6 +48,14 @@ for how in "" "--calibration $out/calibration.yaml" "--errors-known"; do
     grep -o 'correct=[^ ]* .*normal_err_deg=[^ ]* .*heightmap_rmse_m=[^ ]*' | sed 's/ over=.*noise=[^ ]*//; s/ offset_err.*heightmap_rmse/ heightmap_rmse/')"
 done | tee -a "$out/calibration.txt"
 echo
+echo "== A walk: 0.3 m/s towards the stairs from 1.5 m behind them (the gait's bob, sway, yaw and roll), 8 sweeps in the"
+echo "   odom frame, every beam at the base's pose at its time; the height map fused over sweeps around the robot"
+"$bin/evaluate" --scene stairs --sweeps 8 --walk 0.3 --start -1.5,0 --dump "$out/walk" | tee "$out/evaluate_walk.csv"
+echo "== The same walk with every line of a sweep put at the pose of the sweep's end (--no-pose)"
+"$bin/evaluate" --scene stairs --sweeps 8 --walk 0.3 --start -1.5,0 --no-pose | tail -1 | tee "$out/evaluate_walk_no_pose.txt"
+python3 "$here/scripts/plot_heightmap.py" "$out/walk_fused" "$out/heightmap_walk_fused.png"
+python3 "$here/scripts/plot_heightmap.py" "$out/walk" "$out/heightmap_walk_sweep.png"
+echo
 # Another rig's real recording (../shared/data, when it is there): imported, then grouped offline.
 rig_bag="$here/../shared/data/real/tilting_lidar_scanner/room_240.bag"
 if [ -f "$rig_bag" ]; then
@@ -106,10 +114,17 @@ python3 "$here/scripts/plot_heightmap.py" "$out/live" "$out/heightmap.png"
   echo "== Calibration (make_scene_bag with errors, calibrate, evaluate):"
   cat "$out/calibration.txt"
   echo
+  echo "== A walk (evaluate --walk 0.3 --start -1.5,0; per sweep, then means; fused_*: the map fused over sweeps):"
+  column -s, -t < <(head -n -1 "$out/evaluate_walk.csv")
+  tail -1 "$out/evaluate_walk.csv"
+  echo "With every line at the pose of the sweep's end (--no-pose):"
+  cat "$out/evaluate_walk_no_pose.txt"
+  echo
   echo "== Another rig's recording (import_tilt_bag.py, group_bag):"
   cat "$out/room_240.txt"
   echo
-  echo "Pictures: $out/heightmap.png (live), $out/rviz.png, $out/split.png, $out/heightmap_evaluate.png, $out/room_240.png (another rig)"
+  echo "Pictures: $out/heightmap.png (live), $out/rviz.png, $out/split.png, $out/heightmap_evaluate.png, $out/room_240.png (another rig),"
+  echo "  $out/heightmap_walk_fused.png and $out/heightmap_walk_sweep.png (a walk: the fused map, the last sweep's own)"
 } > "$out/summary.txt"
 echo
 cat "$out/summary.txt"

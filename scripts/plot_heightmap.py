@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Pictures the height map and the plane outlines of one sweep (evaluate --dump).
+"""Pictures a height map (one sweep's or the fused one) and the plane outlines of its sweep (evaluate --dump).
 
 usage: plot_heightmap.py PREFIX OUT_PNG [SUMMARY_TXT]
 """
@@ -14,8 +14,13 @@ import numpy as np  # noqa: E402
 
 def main():
     prefix, out = sys.argv[1], sys.argv[2]
-    ox, oy, res, w, h = open(prefix + "_heightmap.txt").read().split()
+    meta = open(prefix + "_heightmap.txt").read().split("\n")
+    ox, oy, res, w, h = meta[0].split()
     ox, oy, res, w, h = float(ox), float(oy), float(res), int(w), int(h)
+    # "robot X Y YAW FRAME WHAT" (older dumps: a standing robot at the origin of base_footprint)
+    robot = meta[1].split() if len(meta) > 1 and meta[1].startswith("robot") else ["robot", "0", "0", "0",
+                                                                                      "base_footprint", "sweep"]
+    rx, ry, ryaw, frame, what = float(robot[1]), float(robot[2]), float(robot[3]), robot[4], robot[5]
     grid = np.fromfile(prefix + "_heightmap.bin", dtype=np.float32).reshape(h, w)
     planes, verts = {}, {}
     for r in csv.DictReader(open(prefix + "_planes.csv")):
@@ -46,12 +51,16 @@ def main():
         kind = "horizontal" if horizontal else ("vertical" if abs(p["n"][2]) < 0.1 else "sloped")
         lines.append(f"plane {pid:2d}: {kind:10s} area {p['area']:6.2f} m^2, centroid "
                      f"({cx:6.2f}, {cy:6.2f}, {cz:6.3f}) m")
-    ax.plot([0], [0], marker="^", color="orange", ms=10)
+    ax.plot([rx], [ry], marker="^", color="orange", ms=10)
+    ax.annotate("", xy=(rx + 0.4 * np.cos(ryaw), ry + 0.4 * np.sin(ryaw)), xytext=(rx, ry),
+                arrowprops=dict(arrowstyle="->", color="orange"))
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
-    ax.set_xlabel("x [m] (base_footprint, forward)")
-    ax.set_ylabel("y [m] (left)")
-    ax.set_title("height map of one sweep (white: walkable plane outlines, red: steep planes)")
+    ax.set_xlabel(f"x [m] ({frame})")
+    ax.set_ylabel(f"y [m] ({frame})")
+    title = "height map fused over sweeps" if what == "fused" else "height map of one sweep"
+    ax.set_title(f"{title} (orange: the robot; white: this sweep's walkable plane outlines, red: steep planes)",
+                 fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=100)
     if len(sys.argv) > 3:

@@ -239,7 +239,8 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, const core::SweepResu
   const double t0 = cpuNow();
   core::buildHeightMap(sw, hp, grid);
   latency += cpuNow() - t0;
-  if (!o.dump_prefix.empty()) dumpSweep(sw, grid, o.dump_prefix);
+  const std::string frame = o.walk.walking() ? "odom" : "base_footprint";
+  if (!o.dump_prefix.empty()) dumpSweep(sw, grid, o.dump_prefix, base, frame);
   const MapScore single = scoreMap(grid, truth_h, base, o);
   e.heightmap_rmse_m = single.rmse;
   e.heightmap_coverage = single.coverage;
@@ -250,7 +251,7 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, const core::SweepResu
   fused.recentre(at.x(), at.y());
   fused.addSweep(sw, sensor, sw.end, travelled);
   e.fused_ms = (cpuNow() - f0) * 1e3;
-  if (!o.dump_prefix.empty()) dumpSweep(sw, fused.grid(), o.dump_prefix + "_fused");
+  if (!o.dump_prefix.empty()) dumpSweep(sw, fused.grid(), o.dump_prefix + "_fused", base, frame, true);
   const MapScore f = scoreMap(fused.grid(), truth_h, base, o);
   e.fused_rmse_m = f.rmse;
   e.fused_coverage = f.coverage;
@@ -349,7 +350,8 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   return out;
 }
 
-void dumpSweep(const core::SweepResult& sw, const core::HeightMapGrid& grid, const std::string& prefix) {
+void dumpSweep(const core::SweepResult& sw, const core::HeightMapGrid& grid, const std::string& prefix,
+               const Eigen::Isometry3d& robot, const std::string& frame, bool fused) {
   if (std::FILE* f = std::fopen((prefix + "_planes.csv").c_str(), "w")) {
     std::fprintf(f, "kind,id,a,b,c,d,e,f,g\n");
     for (const core::Plane& p : sw.planes) {
@@ -366,6 +368,9 @@ void dumpSweep(const core::SweepResult& sw, const core::HeightMapGrid& grid, con
   if (std::FILE* f = std::fopen((prefix + "_heightmap.txt").c_str(), "w")) {
     std::fprintf(f, "%f %f %f %d %d\n", grid.params.origin_x, grid.params.origin_y, grid.params.resolution,
                  grid.params.width, grid.params.height);
+    const Eigen::Vector3d x = robot.linear().col(0);
+    std::fprintf(f, "robot %f %f %f %s %s\n", robot.translation().x(), robot.translation().y(), std::atan2(x.y(), x.x()),
+                 frame.c_str(), fused ? "fused" : "sweep");
     std::fclose(f);
   }
 }

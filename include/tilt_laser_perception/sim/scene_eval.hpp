@@ -67,8 +67,12 @@ core::TiltChain headChain(const HeadGeometry& g);
 
 /// Writes a sweep's planes (PREFIX_planes.csv: one row per plane, then its
 /// boundary vertices) and height map (PREFIX_heightmap.bin: float32 heights,
-/// row-major; PREFIX_heightmap.txt: origin_x origin_y resolution width height).
-void dumpSweep(const core::SweepResult& sweep, const core::HeightMapGrid& grid, const std::string& prefix);
+/// row-major; PREFIX_heightmap.txt: origin_x origin_y resolution width height,
+/// then a line "robot X Y YAW_RAD FRAME WHAT": where the base was, the map's
+/// frame, and "fused" or "sweep").
+void dumpSweep(const core::SweepResult& sweep, const core::HeightMapGrid& grid, const std::string& prefix,
+               const Eigen::Isometry3d& robot = Eigen::Isometry3d::Identity(), const std::string& frame = "base_footprint",
+               bool fused = false);
 
 struct SweepEval {
   int lines = 0, planes = 0, true_faces = 0;
