@@ -123,11 +123,9 @@ static void Sweep1081x200(benchmark::State& state) {
     const double t1 = now();
     core::buildHeightMap(done, core::HeightMapParams(), grid);
     const double map = now() - t1;
-    Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
-    for (const auto& line : done.lines) sensor += line.origin.cast<double>() / static_cast<double>(done.lines.size());
     const double t2 = now();
     fused.recentre(0.0, 0.0);
-    fused.addSweep(done, sensor, static_cast<double>(sweeps), 0.0);
+    fused.addSweep(done, core::meanOrigin(done), static_cast<double>(sweeps), 0.0);
     fused_s.push_back(now() - t2);
     split_s.push_back(split);
     finish_s.push_back(done.finish_seconds);

@@ -1,4 +1,11 @@
-"""A walking robot, recorded and replayed: make_scene_bag --walk writes a
+"""A walking robot, recorded and replayed.
+
+The live walk: sim.launch walk:=... (tilt_laser_sim's robot walks, sim_odometry
+publishes its odometry) with the whole pipeline in odom, recorded; replayed by
+replay.launch frame_id:=odom fuse:=true, the planes and the fused height maps
+equal the live ones, sweep by sweep.
+
+A recorded walk: make_scene_bag --walk writes a
 simulated walk of 0.3 m/s towards the stairs (with the gait's bob, sway, yaw
 and roll, and the odometry on /tf); replay.launch frame_id:=odom fuse:=true
 runs the splitter and the grouper on it. In the odom frame the surfaces stay
@@ -19,9 +26,76 @@ import time
 
 import rosbag
 
-from test_record_replay import roslaunch, stop
+from test_record_replay import planes_by_stamp, roslaunch, same_planes, stop
 
 SPEED, START_X, DURATION = 0.3, -1.5, 8.0
+
+
+def same_maps(a, b):
+    """Equal heights (NaN where NaN), plane ids and classes on the same cells."""
+    if (a.width, a.height, a.resolution) != (b.width, b.height, b.resolution):
+        return f"{a.width}x{a.height} live, {b.width}x{b.height} replayed"
+    if abs(a.origin.position.x - b.origin.position.x) > 1e-6 or abs(a.origin.position.y - b.origin.position.y) > 1e-6:
+        return "the maps lie elsewhere"
+    bad = sum(1 for h, g in zip(a.heights, b.heights)
+              if math.isnan(h) != math.isnan(g) or (not math.isnan(h) and abs(h - g) > 1e-5))
+    if bad:
+        return f"{bad} cells differ"
+    if list(a.classes) != list(b.classes):
+        return "classes differ"
+    return ""
+
+
+def test_a_live_walk_replayed_gives_the_same_planes_and_maps():
+    work = tempfile.mkdtemp(prefix="tlp_walk_live_")
+    port = 16000 + random.randrange(2000)
+    walk = f"--walk {SPEED} --start {START_X},0 --walk-distance 2.4"
+    with open(os.path.join(work, "live.log"), "w") as log:
+        live = roslaunch(port, "sim.launch", f"port:={port + 3000}", f"servo_link:={work}/servo", f"walk:={walk}",
+                         "record:=true", "record_outputs:=true", f"bag_prefix:={work}/live", log=log)
+        try:
+            time.sleep(14.0)
+        finally:
+            stop(live)
+    bags = [f for f in os.listdir(work) if f.startswith("live_") and f.endswith(".bag")]
+    assert len(bags) == 1, f"no recording in {work}: {os.listdir(work)}"
+    live_bag = os.path.join(work, bags[0])
+    live_planes = planes_by_stamp(live_bag, "/planes")
+    live_maps = planes_by_stamp(live_bag, "/height_map")
+    assert len(live_planes) >= 8, f"only {len(live_planes)} live sweeps recorded"
+    assert all(m.header.frame_id == "odom" for m in live_planes.values())
+
+    out_bag = os.path.join(work, "replay.bag")
+    with open(os.path.join(work, "replay.log"), "w") as log:
+        replay = roslaunch(port + 1, "replay.launch", f"bag:={live_bag}", "frame_id:=odom", "fuse:=true", log=log)
+        env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port + 1}")
+        rec = None
+        try:
+            time.sleep(0.5)
+            rec = subprocess.Popen(["rosbag", "record", "-O", out_bag, "/planes", "/height_map"], env=env,
+                                   stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+            with rosbag.Bag(live_bag) as b:
+                duration = b.get_end_time() - b.get_start_time()
+            time.sleep(duration + 5.0)
+        finally:
+            if rec:
+                stop(rec)
+            stop(replay)
+    replayed = planes_by_stamp(out_bag, "/planes")
+    replayed_maps = planes_by_stamp(out_bag, "/height_map")
+    # The recording began within the first live sweep and ended within the
+    # last (as in test_record_replay): the sweeps in between are compared,
+    # and the fused maps of the same sweeps (the first, incomplete sweep is
+    # dropped by both, so both maps start from the same one).
+    common = sorted(set(live_planes) & set(replayed))[1:-1]
+    print(f"live sweeps {len(live_planes)}, replayed {len(replayed)}, compared {len(common)}")
+    assert len(common) >= 6, f"live {len(live_planes)}, replayed {len(replayed)}"
+    bad = {t: d for t in common if (d := same_planes(live_planes[t], replayed[t]))}
+    assert not bad, f"{len(bad)} of {len(common)} sweeps' planes differ: {bad}"
+    maps = {t: same_maps(live_maps[t], replayed_maps[t]) for t in common if t in live_maps and t in replayed_maps}
+    assert len(maps) == len(common)
+    bad = {t: d for t, d in maps.items() if d}
+    assert not bad, f"{len(bad)} of {len(maps)} fused maps differ: {bad}"
 
 
 def base_x(t):

@@ -514,6 +514,12 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
   return false;
 }
 
+Eigen::Vector3d meanOrigin(const SweepResult& sweep) {
+  Eigen::Vector3d o = Eigen::Vector3d::Zero();
+  for (const SweepLine& line : sweep.lines) o += line.origin.cast<double>();
+  return sweep.lines.empty() ? o : Eigen::Vector3d(o / static_cast<double>(sweep.lines.size()));
+}
+
 void transformSweep(SweepResult& sw, const Eigen::Isometry3d& T) {
   const Eigen::Isometry3f Tf = T.cast<float>();
   for (SweepLine& line : sw.lines) {

@@ -341,9 +341,7 @@ void SweepGrouperNodelet::fuseSweep(const core::SweepResult& sweep) {
          e.what() + ")");
   }
   fused_->recentre(robot_xy_.x(), robot_xy_.y());
-  Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
-  for (const auto& line : sweep.lines) sensor += line.origin.cast<double>() / static_cast<double>(sweep.lines.size());
-  fused_->addSweep(sweep, sensor, sweep.end, travelled_);
+  fused_->addSweep(sweep, core::meanOrigin(sweep), sweep.end, travelled_);
 }
 
 void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
@@ -404,14 +402,22 @@ void SweepGrouperNodelet::checkCalibration(const core::SweepResult* sweep) {
     if (calibration_drifted_) warn(calibration_message_);
   }
   if (!sweep) return;
+  // The standing robot's base: the chain's base in the frame at the sweep's end.
+  Eigen::Isometry3d base;
+  try {
+    base = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(sweep->end)));
+  } catch (const tf2::TransformException&) {
+    return;
+  }
+  // The check solves for a head that stands: a base that moved (a walk, in a
+  // fixed ~frame_id) starts the window again, at its new place.
+  if (watch_ && ((base.translation() - watch_base_.translation()).norm() > 0.01 ||
+                 Eigen::AngleAxisd(base.linear() * watch_base_.linear().transpose()).angle() > 0.01)) {
+    watch_.reset();
+    calibration_message_ = "waiting for the robot to stand still";
+  }
   if (!watch_) {
-    // The standing robot's base: the chain's base in the frame at the sweep's end.
-    Eigen::Isometry3d base;
-    try {
-      base = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(sweep->end)));
-    } catch (const tf2::TransformException&) {
-      return;
-    }
+    watch_base_ = base;
     core::TiltChain chain = chain_;
     chain.base_to_joint = base * chain.base_to_joint;
     core::CalibrationWatchOptions wo;

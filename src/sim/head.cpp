@@ -1,4 +1,5 @@
 #include "tilt_laser_perception/sim/head.hpp"
+#include "tilt_laser_perception/sim/options.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -186,21 +187,8 @@ bool parseRigOption(int argc, char** argv, int& i, RigErrors& rig, NoiseParams& 
   if (std::find(std::begin(with_value), std::end(with_value), a) == std::end(with_value)) return false;
   if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
   const std::string v = argv[++i];
-  const auto number = [&](const std::string& text) {
-    std::size_t used = 0;
-    double x = 0.0;
-    try {
-      x = std::stod(text, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != text.size() || !std::isfinite(x)) throw std::invalid_argument(a + ": not a number: '" + text + "'");
-    return x;
-  };
-  const auto nonNegative = [&](double x) {
-    if (x < 0.0) throw std::invalid_argument(a + " must not be negative");
-    return x;
-  };
+  const auto number = [&](const std::string& text) { return optionNumber(a, text); };
+  const auto nonNegative = [&](double x) { return nonNegativeOption(a, x); };
   if (a == "--tilt-noise-deg") rig.tilt_noise = nonNegative(number(v)) * deg;
   else if (a == "--backlash-deg") rig.backlash = nonNegative(number(v)) * deg;
   else if (a == "--time-offset-ms") rig.time_offset = number(v) * 1e-3;

@@ -245,11 +245,9 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, const core::SweepResu
   e.heightmap_rmse_m = single.rmse;
   e.heightmap_coverage = single.coverage;
   e.front_coverage = single.front;
-  Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
-  for (const auto& line : sw.lines) sensor += line.origin.cast<double>() / sw.lines.size();
   const double f0 = cpuNow();
   fused.recentre(at.x(), at.y());
-  fused.addSweep(sw, sensor, sw.end, travelled);
+  fused.addSweep(sw, core::meanOrigin(sw), sw.end, travelled);
   e.fused_ms = (cpuNow() - f0) * 1e3;
   if (!o.dump_prefix.empty()) dumpSweep(sw, fused.grid(), o.dump_prefix + "_fused", base, frame, true);
   const MapScore f = scoreMap(fused.grid(), truth_h, base, o);

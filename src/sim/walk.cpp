@@ -1,5 +1,7 @@
 #include "tilt_laser_perception/sim/walk.hpp"
 
+#include "tilt_laser_perception/sim/options.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -32,7 +34,7 @@ WalkModel::WalkModel(const Scene& scene, const WalkParams& params) : scene_(scen
 }
 
 double WalkModel::travelled(double t) const {
-  return p_.walking() ? std::clamp(p_.speed * t, 0.0, p_.distance) : 0.0;
+  return p_.walking() ? std::clamp(p_.speed * (t - p_.start_time), 0.0, p_.distance) : 0.0;
 }
 
 void WalkModel::path(double s, Eigen::Vector2d& p, double& heading) const {
@@ -69,7 +71,7 @@ Eigen::Isometry3d WalkModel::truePose(double t) const {
   // The gait fades in over the first step and out over the last.
   const double step_length = p_.speed * p_.step_period;
   const double envelope = std::clamp(s / step_length, 0.0, 1.0) * std::clamp((p_.distance - s) / step_length, 0.0, 1.0);
-  const double step = 2.0 * M_PI * t / p_.step_period, stride = 0.5 * step;
+  const double step = 2.0 * M_PI * (t - p_.start_time) / p_.step_period, stride = 0.5 * step;
   const Eigen::Vector2d left(-std::sin(heading), std::cos(heading));
   xy += envelope * p_.sway * std::sin(stride) * left;
   const double z = (p_.follow_ground ? groundHeight(s) : 0.0) + envelope * p_.bob * std::sin(step);
@@ -114,17 +116,7 @@ bool parseWalkOption(int argc, char** argv, int& i, WalkParams& w) {
   if (std::find(std::begin(with_value), std::end(with_value), a) == std::end(with_value)) return false;
   if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
   const std::string v = argv[++i];
-  const auto number = [&](const std::string& text) {
-    std::size_t used = 0;
-    double x = 0.0;
-    try {
-      x = std::stod(text, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != text.size() || !std::isfinite(x)) throw std::invalid_argument(a + ": not a number: '" + text + "'");
-    return x;
-  };
+  const auto number = [&](const std::string& text) { return optionNumber(a, text); };
   const auto list = [&](std::size_t min, std::size_t max) {
     std::vector<double> out;
     std::size_t from = 0;
@@ -137,10 +129,7 @@ bool parseWalkOption(int argc, char** argv, int& i, WalkParams& w) {
     if (out.size() < min || out.size() > max) throw std::invalid_argument(a + ": wrong number of values: '" + v + "'");
     return out;
   };
-  const auto nonNegative = [&](double x) {
-    if (x < 0.0) throw std::invalid_argument(a + " must not be negative");
-    return x;
-  };
+  const auto nonNegative = [&](double x) { return nonNegativeOption(a, x); };
   const double deg = M_PI / 180.0;
   if (a == "--walk") w.speed = nonNegative(number(v));
   else if (a == "--path") {

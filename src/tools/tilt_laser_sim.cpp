@@ -33,13 +33,14 @@ void usage() {
       "                      [--fault SPEC]... [--servo-link PATH] [--id N] [--drift PPM]\n"
       "                      [--clock-offset MS] [--motor-ppm PPM] [--noise datasheet|percent|none]\n"
       "                      [--initial-tilt DEG]\n"
-      "                      [--head FILE] [--duration S]\n"
+      "                      [--head FILE] [--duration S] [--walk SPEED ... --walk-clock FILE]\n"
       "Prints the laser's address (host:port) and the servo's device path, one per line.\n"
       "Fault SPEC is NAME@T[:ARG], T seconds after start:\n"
       "  laser: drop@T  silent@T[:DURATION]  corrupt@T[:SCANS]  truncate@T[:SCANS]  delay@T:MS (0 ends it)  reboot@T\n"
       "  servo: servo-noreply@T[:DURATION]  servo-badcrc@T[:N]  servo-garbage@T[:N]\n"
       "         servo-overload@T  servo-overheat@T  servo-voltage@T  servo-clear@T  servo-vanish@T[:DURATION]\n"
-      "%s", sim::rigOptionsUsage());
+      "  --walk-clock FILE: where the walk's start (host time) is written, for sim_odometry\n"
+      "%s%s", sim::rigOptionsUsage(), sim::walkOptionsUsage());
 }
 
 struct Fault {
@@ -75,6 +76,8 @@ int main(int argc, char** argv) {
   sim::NoiseParams noise;
   sim::RigErrors rig;
   std::vector<Fault> faults;
+  sim::WalkParams walk_params;
+  std::string walk_clock;
   // roslaunch appends __name:= and __log:= arguments: leave them out.
   std::vector<char*> args{argv[0]};
   for (int i = 1; i < argc; ++i)
@@ -86,7 +89,7 @@ int main(int argc, char** argv) {
     const bool v = i + 1 < argc;
     if (a == "--truth" && (!v || std::strncmp(argv[i + 1], "--", 2) == 0)) continue;  // an empty --truth: none
     try {
-      if (sim::parseRigOption(argc, argv, i, rig, noise)) continue;
+      if (sim::parseRigOption(argc, argv, i, rig, noise) || sim::parseWalkOption(argc, argv, i, walk_params)) continue;
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "tilt_laser_sim: %s\n", e.what());
       return 2;
@@ -97,6 +100,7 @@ int main(int argc, char** argv) {
     else if (a == "--port" && v) utm_opt.port = static_cast<std::uint16_t>(std::atoi(argv[++i]));
     else if (a == "--truth" && v) truth_path = argv[++i];
     else if (a == "--servo-link" && v) link = argv[++i];
+    else if (a == "--walk-clock" && v) walk_clock = argv[++i];
     else if (a == "--id" && v) id = std::atoi(argv[++i]);
     else if (a == "--drift" && v) utm_opt.drift_ppm = std::atof(argv[++i]);
     else if (a == "--clock-offset" && v) utm_opt.clock_offset_ms = std::atof(argv[++i]);
@@ -126,6 +130,19 @@ int main(int argc, char** argv) {
     const double start = sim::hostNow();
     sim::ServoModel servo(initial_tilt_deg * M_PI / 180.0, start);
     sim::HeadSimulator head_sim(scene, head, servo, noise, seed, sim::LidarModel(), rig);
+    // A walking robot: the walk begins now; its clock goes to --walk-clock for
+    // sim_odometry, which publishes the odometry's odom -> base_footprint.
+    walk_params.start_time = start;
+    const sim::WalkModel walk(scene, walk_params);
+    if (walk_params.walking()) head_sim.setWalk(&walk);
+    if (!walk_clock.empty()) {
+      const std::string tmp = walk_clock + ".tmp";
+      std::FILE* f = std::fopen(tmp.c_str(), "w");
+      if (!f) throw std::runtime_error("cannot write " + tmp);
+      std::fprintf(f, "%.6f\n", start);
+      std::fclose(f);
+      std::rename(tmp.c_str(), walk_clock.c_str());  // whole, or not at all
+    }
 
     std::ofstream truth;
     if (!truth_path.empty()) {

@@ -202,6 +202,9 @@ class SweepAssembler {
   double trig_min_ = 0.0, trig_inc_ = 0.0;
 };
 
+/// Where the laser was during a sweep: the mean of its lines' origins (zero without lines).
+Eigen::Vector3d meanOrigin(const SweepResult& sweep);
+
 /// Moves a finished sweep rigidly (points, origins, segments, planes and their
 /// polygons): p -> T p. What a tool that puts a whole sweep in the world with
 /// one pose does (evaluate --no-pose), and how a sweep changes frame.

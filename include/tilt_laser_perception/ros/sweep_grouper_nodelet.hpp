@@ -97,6 +97,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   double calibration_check_period_ = 60.0;
   core::TiltChain chain_;
   std::unique_ptr<core::CalibrationWatch> watch_;
+  Eigen::Isometry3d watch_base_ = Eigen::Isometry3d::Identity();  ///< the chain's base when the watch began
   std::future<core::CalibrationResult> check_;
   std::string calibration_message_ = "no check yet";
   bool calibration_drifted_ = false;

@@ -31,6 +31,7 @@ namespace sim {
 /// of mass swings over its feet.
 struct WalkParams {
   double speed = 0.0;                 ///< along the path [m/s]; 0: the robot stands
+  double start_time = 0.0;            ///< the walk begins at this time of the simulator's clock [s]
   Eigen::Vector3d start{0.0, 0.0, 0.0};  ///< x, y [m] and heading [rad] at t = 0
   double turn_radius = 0.0;           ///< 0: straight; > 0 turns left, < 0 right [m]
   double distance = 1e9;              ///< the robot stops after this far [m]
@@ -63,7 +64,8 @@ class WalkModel {
   const WalkParams& params() const { return p_; }
   /// Distance walked at t [m].
   double travelled(double t) const;
-  /// The true pose of base_footprint in the world (the scene's frame) at t.
+  /// The true pose of base_footprint in the world (the scene's frame) at t
+  /// (the start pose before start_time).
   Eigen::Isometry3d truePose(double t) const;
   /// The pose the robot's odometry reports (odom -> base_footprint; odom is
   /// the world at t = 0): the true one, or drifted by the odometry's errors.
