@@ -85,8 +85,8 @@ def test_a_live_walk_replayed_gives_the_same_planes_and_maps():
     replayed_maps = planes_by_stamp(out_bag, "/height_map")
     # The recording began within the first live sweep and ended within the
     # last (as in test_record_replay): the sweeps in between are compared,
-    # and the fused maps of the same sweeps (the first, incomplete sweep is
-    # dropped by both, so both maps start from the same one).
+    # and the fused maps of the same sweeps (equal too: the sweeps fused
+    # before them were fused alike).
     common = sorted(set(live_planes) & set(replayed))[1:-1]
     print(f"live sweeps {len(live_planes)}, replayed {len(replayed)}, compared {len(common)}")
     assert len(common) >= 6, f"live {len(live_planes)}, replayed {len(replayed)}"
