@@ -108,39 +108,9 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
   const float gate2 = static_cast<float>(p_.gate * p_.gate);
   const float sigma_floor2 = static_cast<float>(0.25 * p_.sigma_min * p_.sigma_min);
 
-  // The box of cells the sweep's map can have touched: its walkable planes'
-  // polygons and its points (clipped to the grid).
-  int bx0 = g.width, by0 = g.height, bx1 = -1, by1 = -1;
+  // The cells the sweep's own map gave a height.
+  const int bx0 = sweep_.box_x0, bx1 = sweep_.box_x1, by0 = sweep_.box_y0, by1 = sweep_.box_y1;
   const double inv_res = 1.0 / g.resolution;
-  const auto extend = [&](double x, double y) {
-    const double fx = (x - g.origin_x) * inv_res, fy = (y - g.origin_y) * inv_res;
-    if (!(fx > -1.0 && fy > -1.0 && fx < g.width + 1.0 && fy < g.height + 1.0)) return;  // NaN too
-    bx0 = std::min(bx0, static_cast<int>(fx));
-    bx1 = std::max(bx1, static_cast<int>(fx));
-    by0 = std::min(by0, static_cast<int>(fy));
-    by1 = std::max(by1, static_cast<int>(fy));
-  };
-  for (const Plane& pl : sweep.planes)
-    for (const Eigen::Vector3d& v : pl.boundary) extend(v.x(), v.y());
-  for (const SweepLine& line : sweep.lines) {
-    float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
-    for (const Eigen::Vector3f& q : line.points) {  // NaN compares false
-      x0 = q.x() < x0 ? q.x() : x0;
-      x1 = q.x() > x1 ? q.x() : x1;
-      y0 = q.y() < y0 ? q.y() : y0;
-      y1 = q.y() > y1 ? q.y() : y1;
-    }
-    if (!(x1 >= x0)) continue;
-    const double lo_x = std::max<double>(x0, g.origin_x), hi_x = std::min<double>(x1, g.origin_x + g.width * g.resolution - 1e-9),
-                 lo_y = std::max<double>(y0, g.origin_y), hi_y = std::min<double>(y1, g.origin_y + g.height * g.resolution - 1e-9);
-    if (lo_x > hi_x || lo_y > hi_y) continue;
-    extend(lo_x, lo_y);
-    extend(hi_x, hi_y);
-  }
-  bx0 = std::max(bx0 - 1, 0);
-  by0 = std::max(by0 - 1, 0);
-  bx1 = std::min(bx1 + 1, g.width - 1);
-  by1 = std::min(by1 + 1, g.height - 1);
 
   // The variance of a new height grows with the range it was seen from
   // (sigma_min and sigma_range * range added in quadrature); an old one's
@@ -234,9 +204,27 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
   // sweep is taken back so. Mixed pixels say nothing.
   const float tolerance = static_cast<float>(g.obstacle_min_height), ox = static_cast<float>(g.origin_x),
               oy = static_cast<float>(g.origin_y), inv_r = static_cast<float>(inv_res);
-  for (const SweepLine& line : sweep.lines) {
+  // The points of walkable planes are in the cells their polygons filled: skipped.
+  const double cos_max = std::cos(g.max_slope_deg * M_PI / 180.0);
+  std::vector<char> walkable(sweep.planes.size(), 0);
+  for (const Plane& pl : sweep.planes)
+    if (pl.id >= 0 && pl.id < static_cast<int>(walkable.size())) walkable[pl.id] = std::abs(pl.fit.normal.z()) >= cos_max;
+  std::size_t si = 0;
+  for (std::size_t li = 0; li < sweep.lines.size(); ++li) {
+    const SweepLine& line = sweep.lines[li];
     std::size_t ei = 0;
     for (std::size_t i = 0; i < line.points.size(); ++i) {
+      while (si < sweep.segments.size() &&
+             (sweep.segments[si].line < static_cast<int>(li) ||
+              (sweep.segments[si].line == static_cast<int>(li) && sweep.segments[si].last < static_cast<int>(i))))
+        ++si;
+      if (si < sweep.segments.size() && sweep.segments[si].line == static_cast<int>(li) &&
+          sweep.segments[si].first <= static_cast<int>(i) && sweep.segment_plane[si] >= 0 &&
+          sweep.segment_plane[si] < static_cast<int>(walkable.size()) &&
+          walkable[sweep.segment_plane[si]]) {
+        i = sweep.segments[si].last;  // the rest of the segment
+        continue;
+      }
       const Eigen::Vector3f& q = line.points[i];
       const float fx = (q.x() - ox) * inv_r, fy = (q.y() - oy) * inv_r;
       if (!(fx >= 0.0f && fy >= 0.0f && fx < g.width && fy < g.height)) continue;  // NaN too

@@ -16,6 +16,15 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   out.classes.assign(cells, CellClass::Unknown);
   out.floor_plane = -1;
   out.floor_height = std::numeric_limits<double>::quiet_NaN();
+  out.box_x0 = p.width;
+  out.box_y0 = p.height;
+  out.box_x1 = out.box_y1 = -1;
+  const auto inBox = [&out](int ix0, int ix1, int iy) {
+    out.box_x0 = std::min(out.box_x0, ix0);
+    out.box_x1 = std::max(out.box_x1, ix1);
+    out.box_y0 = std::min(out.box_y0, iy);
+    out.box_y1 = std::max(out.box_y1, iy);
+  };
 
   const double cos_max = std::cos(p.max_slope_deg * M_PI / 180.0);
   std::vector<char> walkable(sweep.planes.size(), 0), step_face(sweep.planes.size(), 0);
@@ -102,6 +111,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         const std::size_t c0 = out.index(ix0, iy);
         float* h = out.heights.data() + c0;
         const int count = ix1 - ix0 + 1;
+        if (count > 0) inBox(ix0, ix1, iy);
         for (int k = 0; k < count; ++k) {
           const float z = z0 + k * dz;
           if (h[k] >= z) continue;  // seen from above: the higher surface (NaN: none yet)
@@ -142,6 +152,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         z < out.floor_height + p.obstacle_min_height)
       return;  // a stray point at floor level: not an obstacle
     out.heights[c] = z;
+    inBox(ix, ix, iy);
     out.classes[c] = CellClass::Obstacle;
     out.plane_ids[c] = -1;
   };

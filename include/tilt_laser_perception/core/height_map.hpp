@@ -38,6 +38,8 @@ struct HeightMapGrid {
   std::vector<CellClass> classes;
   double floor_height = 0.0;           ///< height of the floor plane [m] (NaN when none was found)
   int floor_plane = -1;
+  /// The box of the cells buildHeightMap gave a height (inclusive; empty when x1 < x0).
+  int box_x0 = 0, box_y0 = 0, box_x1 = -1, box_y1 = -1;
   std::size_t index(int ix, int iy) const { return static_cast<std::size_t>(iy) * params.width + ix; }
 };
 
