@@ -811,6 +811,33 @@ TEST(SweepAssembler, WaitsForLateTransformsAndDropsLinesInATfGap) {
   EXPECT_GE(c.lines_no_pose, 100u);
 }
 
+/// A UTM-30LX scan of 1081 beams over 27 ms, every range 2 m.
+static LineInput fullScan() {
+  LineInput in;
+  in.ranges.assign(1081, 2.0f);
+  in.angle_min = -2.356;
+  in.angle_increment = 0.004363;
+  in.range_max = 30;
+  in.time_increment = 0.000025;
+  return in;
+}
+
+/// The sweep from the reversal at 1.0 s to the one at 2.0 s of a joint
+/// turning at 1 rad/s (0.2 -> 1.2 -> 0.2 rad), its lines copies of `in`
+/// 30 ms apart, each one segment.
+static bool oneSweep(SweepAssembler& a, const LineInput& in, SweepResult& r) {
+  const auto q_at = [](double t) { return t < 1.0 ? 0.2 + t : (t < 2.0 ? 2.2 - t : t - 1.8); };
+  for (double t = 0.0; t <= 2.3; t += 0.005) a.addJoint(t, q_at(t));
+  for (int k = 0; k < 34; ++k) {  // the lines of the sweep, and one past it
+    LineInput l = in;
+    l.stamp = 1.0 + 0.03 * k + 0.001;
+    l.segments = {{0, static_cast<int>(in.ranges.size()) - 1}};
+    a.addLine(l, 2.3);
+  }
+  a.addJoint(2.305, q_at(2.305));
+  return a.poll(2.31, r);
+}
+
 TEST(SweepAssembler, EveryBeamAtItsOwnTiltExactly) {
   // 1081 beams over 27 ms while the joint turns at 1 rad/s: each point is
   // where the exact rotation at its own time puts it (the assembly turns the
@@ -821,25 +848,10 @@ TEST(SweepAssembler, EveryBeamAtItsOwnTiltExactly) {
   chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
   chain.joint_to_laser.translation() = Eigen::Vector3d(0.05, 0, 0.06);
   SweepAssembler a(p, chain);
-  // reversals at 1.0 s and 2.0 s
-  const auto q_at = [](double t) { return t < 1.0 ? 0.2 + t : (t < 2.0 ? 2.2 - t : t - 1.8); };
-  for (double t = 0.0; t <= 2.3; t += 0.005) a.addJoint(t, q_at(t));
-  LineInput in;
-  in.ranges.resize(1081);
+  LineInput in = fullScan();
   for (int i = 0; i < 1081; ++i) in.ranges[i] = 1.0f + 0.002f * i;
-  in.angle_min = -2.356;
-  in.angle_increment = 0.004363;
-  in.range_max = 30;
-  in.time_increment = 0.000025;
-  for (int k = 0; k < 34; ++k) {  // the lines of the sweep from 1.0 s to 2.0 s, and one past it
-    LineInput l = in;
-    l.stamp = 1.0 + 0.03 * k + 0.001;
-    l.segments = {{0, 1080}};
-    a.addLine(l, 2.3);
-  }
-  a.addJoint(2.305, q_at(2.305));
   SweepResult r;
-  ASSERT_TRUE(a.poll(2.31, r));
+  ASSERT_TRUE(oneSweep(a, in, r));
   double worst = 0.0;
   for (const SweepLine& l : r.lines)
     for (int i = 0; i < 1081; ++i) {
@@ -874,23 +886,9 @@ TEST(SweepAssembler, AWalkingBaseMovesEveryBeamToItsOwnTime) {
     pose = base_at(t);
     return SweepAssembler::PoseStatus::Ok;
   });
-  const auto q_at = [](double t) { return t < 1.0 ? 0.2 + t : (t < 2.0 ? 2.2 - t : t - 1.8); };
-  for (double t = 0.0; t <= 2.3; t += 0.005) a.addJoint(t, q_at(t));
-  LineInput in;
-  in.ranges.assign(1081, 2.0f);
-  in.angle_min = -2.356;
-  in.angle_increment = 0.004363;
-  in.range_max = 30;
-  in.time_increment = 0.000025;
-  for (int k = 0; k < 34; ++k) {
-    LineInput l = in;
-    l.stamp = 1.0 + 0.03 * k + 0.001;
-    l.segments = {{0, 1080}};
-    a.addLine(l, 2.3);
-  }
-  a.addJoint(2.305, q_at(2.305));
+  const LineInput in = fullScan();
   SweepResult r;
-  ASSERT_TRUE(a.poll(2.31, r));
+  ASSERT_TRUE(oneSweep(a, in, r));
   double worst = 0.0, worst_mid = 0.0;
   for (const SweepLine& l : r.lines)
     for (int i = 0; i < 1081; ++i) {

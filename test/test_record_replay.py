@@ -35,6 +35,26 @@ def stop(proc, timeout=20):
             proc.wait()
 
 
+def replay_recorded(port, bag, out_bag, topics, log, *args, duration=None):
+    """replay.launch bag:=BAG ARGS on its own master, its outputs TOPICS recorded to OUT_BAG; returns when the bag
+    has played (replay.launch waits 1 s, then plays at rate 1) and a few seconds more."""
+    replay = roslaunch(port, "replay.launch", f"bag:={bag}", *args, log=log)
+    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
+    rec = None
+    try:
+        time.sleep(0.5)
+        rec = subprocess.Popen(["rosbag", "record", "-O", out_bag, *topics], env=env, stdout=log,
+                               stderr=subprocess.STDOUT, start_new_session=True)
+        if duration is None:
+            with rosbag.Bag(bag) as b:
+                duration = b.get_end_time() - b.get_start_time()
+        time.sleep(duration + 5.0)
+    finally:
+        if rec:
+            stop(rec)
+        stop(replay)
+
+
 def planes_by_stamp(bag_path, topic):
     out = {}
     with rosbag.Bag(bag_path) as bag:
@@ -75,21 +95,7 @@ def test_replayed_planes_equal_the_live_ones():
     assert len(live_planes) >= 10, f"only {len(live_planes)} live sweeps recorded"
 
     with open(os.path.join(work, "replay.log"), "w") as log:
-        replay = roslaunch(port + 1, "replay.launch", f"bag:={bags[0]}", log=log)
-        env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port + 1}")
-        rec = None
-        try:
-            time.sleep(0.5)
-            rec = subprocess.Popen(["rosbag", "record", "-O", os.path.join(work, "replay.bag"), "/planes"], env=env,
-                                   stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-            # replay.launch waits 1 s before playing; then the bag plays at rate 1
-            with rosbag.Bag(bags[0]) as b:
-                duration = b.get_end_time() - b.get_start_time()
-            time.sleep(duration + 5.0)
-        finally:
-            if rec:
-                stop(rec)
-            stop(replay)
+        replay_recorded(port + 1, bags[0], os.path.join(work, "replay.bag"), ["/planes"], log)
     replayed = planes_by_stamp(os.path.join(work, "replay.bag"), "/planes")
     common = sorted(set(live_planes) & set(replayed))
     # The recording began after the first live sweep had, and it stopped

@@ -26,7 +26,7 @@ import time
 
 import rosbag
 
-from test_record_replay import planes_by_stamp, roslaunch, same_planes, stop
+from test_record_replay import planes_by_stamp, replay_recorded, roslaunch, same_planes, stop
 
 SPEED, START_X, DURATION = 0.3, -1.5, 8.0
 
@@ -67,20 +67,7 @@ def test_a_live_walk_replayed_gives_the_same_planes_and_maps():
 
     out_bag = os.path.join(work, "replay.bag")
     with open(os.path.join(work, "replay.log"), "w") as log:
-        replay = roslaunch(port + 1, "replay.launch", f"bag:={live_bag}", "frame_id:=odom", "fuse:=true", log=log)
-        env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port + 1}")
-        rec = None
-        try:
-            time.sleep(0.5)
-            rec = subprocess.Popen(["rosbag", "record", "-O", out_bag, "/planes", "/height_map"], env=env,
-                                   stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-            with rosbag.Bag(live_bag) as b:
-                duration = b.get_end_time() - b.get_start_time()
-            time.sleep(duration + 5.0)
-        finally:
-            if rec:
-                stop(rec)
-            stop(replay)
+        replay_recorded(port + 1, live_bag, out_bag, ["/planes", "/height_map"], log, "frame_id:=odom", "fuse:=true")
     replayed = planes_by_stamp(out_bag, "/planes")
     replayed_maps = planes_by_stamp(out_bag, "/height_map")
     # The recording began within the first live sweep and ended within the
@@ -111,18 +98,8 @@ def test_a_walk_replayed_in_odom():
     port = 14000 + random.randrange(2000)
     out_bag = os.path.join(work, "replay.bag")
     with open(os.path.join(work, "replay.log"), "w") as log:
-        replay = roslaunch(port, "replay.launch", f"bag:={walk_bag}", "frame_id:=odom", "fuse:=true", log=log)
-        env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
-        rec = None
-        try:
-            time.sleep(0.5)
-            rec = subprocess.Popen(["rosbag", "record", "-O", out_bag, "/planes", "/terrain_planes", "/height_map"],
-                                   env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-            time.sleep(DURATION + 5.0)
-        finally:
-            if rec:
-                stop(rec)
-            stop(replay)
+        replay_recorded(port, walk_bag, out_bag, ["/planes", "/terrain_planes", "/height_map"], log, "frame_id:=odom",
+                        "fuse:=true")
     with rosbag.Bag(walk_bag) as b:
         t0 = b.get_start_time()
     planes, terrain, maps = [], [], []
