@@ -88,6 +88,14 @@ void FusedHeightMap::recentre(double x, double y) {
   shiftGrid(seen_, w, h, dx, dy, kNaN, sf);
 }
 
+void FusedHeightMap::forgetCell(std::size_t c) {
+  grid_.heights[c] = kNaN;
+  grid_.plane_ids[c] = -1;
+  grid_.classes[c] = CellClass::Unknown;
+  var_[c] = kNaN;
+  seen_[c] = kNaN;
+}
+
 double FusedHeightMap::sigma(std::size_t c, double travelled) const {
   if (std::isnan(grid_.heights[c])) return std::numeric_limits<double>::quiet_NaN();
   const double drift = p_.drift_per_metre * std::max(0.0, travelled - walked_[c]);
@@ -234,11 +242,7 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
       while (ei < line.edges.size() && line.edges[ei].first < static_cast<int>(i)) ++ei;
       if (ei < line.edges.size() && line.edges[ei].first == static_cast<int>(i) && line.edges[ei].second == EdgeKind::Veil)
         continue;
-      grid_.heights[c] = kNaN;
-      grid_.plane_ids[c] = -1;
-      grid_.classes[c] = CellClass::Unknown;
-      var_[c] = kNaN;
-      seen_[c] = kNaN;
+      forgetCell(c);
     }
   }
   forget(stamp);
@@ -250,13 +254,7 @@ void FusedHeightMap::forget(double now) {
   const float* seen = seen_.data();
   // Most cells are recent or never seen: one compare each, then the few to forget.
   for (std::size_t c = 0; c < n; ++c)
-    if (seen[c] < before) {  // NaN (never seen) is not
-      grid_.heights[c] = kNaN;
-      grid_.plane_ids[c] = -1;
-      grid_.classes[c] = CellClass::Unknown;
-      var_[c] = kNaN;
-      seen_[c] = kNaN;
-    }
+    if (seen[c] < before) forgetCell(c);  // NaN (never seen) is not
   for (auto it = planes_.begin(); it != planes_.end();)
     it = it->second.last_seen < now - p_.forget_time ? planes_.erase(it) : std::next(it);
 }

@@ -458,6 +458,10 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("planes (last sweep)", last_planes_);
   stat.add("grouping as lines came [ms] (last sweep)", last_group_ms_);
   stat.add("latency after the last line [ms] (last sweep)", last_latency_ms_);
+  if (fused_) {
+    stat.add("fused map: distance walked [m]", travelled_);
+    stat.add("fused map: terrain planes", fused_->planes().size());
+  }
   if (calibration_check_sweeps_ > 0) {
     checkCalibration(nullptr);  // a verdict that came since the last sweep
     stat.add("calibration check", calibration_message_);

@@ -75,6 +75,7 @@ class FusedHeightMap {
   const FusedMapParams& params() const { return p_; }
 
  private:
+  void forgetCell(std::size_t c);
   FusedMapParams p_;
   HeightMapGrid grid_, sweep_;
   std::vector<float> var_;       ///< height variance when last seen [m^2]
