@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "tilt_laser_perception/sim/evaluation.hpp"
+#include "tilt_laser_perception/sim/walk.hpp"
 
 using namespace tilt_laser_perception;
 using sim::LidarModel;
@@ -290,3 +291,62 @@ TEST(Figure3, AdaptiveThresholdBeatsFixedAtRange) {
   }
 }
 
+
+TEST(Walk, TheBaseFollowsItsPathWithTheGaitOnTop) {
+  const Scene scene = sim::loadScene("stairs");
+  sim::WalkParams p;
+  p.speed = 0.3;
+  p.start = Eigen::Vector3d(-1.5, 0.0, 0.0);
+  p.distance = 1.2;
+  const sim::WalkModel walk(scene, p);
+  EXPECT_DOUBLE_EQ(walk.travelled(2.0), 0.6);
+  EXPECT_DOUBLE_EQ(walk.travelled(10.0), 1.2);  // stopped
+  // Over whole strides the sway and the bob stay within their amplitudes, the heading within the gait's yaw.
+  double ymax = 0.0, zmin = 1.0, zmax = -1.0, yaw_max = 0.0;
+  for (double t = 0.8; t < 3.2; t += 0.01) {
+    const Eigen::Isometry3d T = walk.truePose(t);
+    EXPECT_NEAR(T.translation().x(), -1.5 + 0.3 * t, 1e-9);
+    ymax = std::max(ymax, std::abs(T.translation().y()));
+    zmin = std::min(zmin, T.translation().z());
+    zmax = std::max(zmax, T.translation().z());
+    const Eigen::Vector3d x = T.linear().col(0);
+    yaw_max = std::max(yaw_max, std::abs(std::atan2(x.y(), x.x())));
+  }
+  EXPECT_NEAR(ymax, p.sway, 0.002);
+  EXPECT_NEAR(zmin, -p.bob, 0.001);
+  EXPECT_NEAR(zmax, p.bob, 0.001);
+  EXPECT_NEAR(yaw_max, p.yaw, 0.002);
+  // Stopped: no gait, where the path ended.
+  const Eigen::Isometry3d end = walk.truePose(20.0);
+  EXPECT_NEAR(end.translation().x(), -0.3, 1e-9);
+  EXPECT_NEAR(end.translation().y(), 0.0, 1e-9);
+  EXPECT_NEAR(end.translation().z(), 0.0, 1e-9);
+}
+
+TEST(Walk, TheBaseGoesUpTheStepAndTheOdometryDrifts) {
+  const Scene scene = sim::loadScene("stairs");
+  sim::WalkParams p;
+  int i = 0;
+  const char* path[] = {"t", "--path", "step", "--walk", "0.3", "--odom-drift", "2,1"};
+  for (i = 1; i < 7; ++i) ASSERT_TRUE(sim::parseWalkOption(7, const_cast<char**>(path), i, p));
+  EXPECT_DOUBLE_EQ(p.distance, 1.35);
+  const sim::WalkModel walk(scene, p);
+  EXPECT_NEAR(walk.truePose(0.5).translation().z(), 0.0, 0.011);  // on the floor (the bob aside)
+  EXPECT_NEAR(walk.truePose(20.0).translation().z(), 0.15, 1e-6);  // on the first tread (x 1.2-1.5), standing
+  EXPECT_NEAR(walk.truePose(20.0).translation().x(), 1.35, 1e-9);
+  // The odometry: 2 % long and 1 deg per metre walked, about the start.
+  const Eigen::Isometry3d odom = walk.odomPose(20.0), truth = walk.truePose(20.0);
+  const double drift = 1.35 * M_PI / 180.0;
+  EXPECT_NEAR(odom.translation().x(), 1.02 * 1.35 * std::cos(drift), 1e-9);
+  EXPECT_NEAR(odom.translation().y(), 1.02 * 1.35 * std::sin(drift), 1e-9);
+  EXPECT_NEAR(Eigen::AngleAxisd(odom.linear() * truth.linear().transpose()).angle(), drift, 1e-9);
+  // Bad values are refused with the option's name.
+  sim::WalkParams q;
+  const char* bad[] = {"t", "--walk", "-1", "--path", "zigzag", "--start", "1"};
+  i = 1;
+  EXPECT_THROW(sim::parseWalkOption(7, const_cast<char**>(bad), i, q), std::invalid_argument);
+  i = 3;
+  EXPECT_THROW(sim::parseWalkOption(7, const_cast<char**>(bad), i, q), std::invalid_argument);
+  i = 5;
+  EXPECT_THROW(sim::parseWalkOption(7, const_cast<char**>(bad), i, q), std::invalid_argument);
+}

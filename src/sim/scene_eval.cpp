@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <map>
 #include <set>
@@ -52,7 +53,8 @@ class TruthHeights {
     }
   }
   float at(long i, long j) {
-    const long long key = (static_cast<long long>(i) << 32) ^ static_cast<unsigned int>(j);
+    const unsigned long long key = (static_cast<unsigned long long>(static_cast<std::uint32_t>(i)) << 32) |
+                                   static_cast<std::uint32_t>(j);
     const auto it = cache_.find(key);
     if (it != cache_.end()) return it->second;
     const Eigen::Vector2d c((i + 0.5) * r_, (j + 0.5) * r_);
@@ -74,7 +76,7 @@ class TruthHeights {
   const Scene& scene_;
   double r_;
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> walls_;  ///< footprints of the tall vertical faces
-  std::unordered_map<long long, float> cache_;
+  std::unordered_map<unsigned long long, float> cache_;
 };
 
 struct MapScore {
