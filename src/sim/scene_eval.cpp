@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <map>
 #include <set>
-#include <unordered_map>
 
 #include "tilt_laser_perception/dynamixel/mx64.hpp"
 #include "tilt_laser_perception/sim/evaluation.hpp"
@@ -34,29 +33,39 @@ namespace {
 
 /// The scene's true heights on the cell lattice of a resolution (cell (i, j)
 /// centred at ((i + 0.5) r, (j + 0.5) r)): the highest surface above the
-/// centre, ray cast once per cell as maps ask for them. A cell that a
-/// vertical face reaching above `top` crosses (a wall: the head cannot see
-/// its top) is not judged (NaN).
+/// centre, ray cast once per cell as maps ask for them (kept for the cells
+/// over the scene's faces). A cell that a vertical face reaching above `top`
+/// crosses (a wall: the head cannot see its top) is not judged (NaN).
 class TruthHeights {
  public:
   TruthHeights(const Scene& scene, double resolution, double top) : scene_(scene), r_(resolution) {
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
     for (const Face& f : scene.faces) {
-      if (std::abs(f.normal.z()) > 0.2) continue;
       double zmax = -1e300;
       Eigen::Vector2d a(1e300, 0), b(-1e300, 0);
       for (const Eigen::Vector3d& c : f.corners()) {
         zmax = std::max(zmax, c.z());
+        x0 = std::min(x0, c.x());
+        x1 = std::max(x1, c.x());
+        y0 = std::min(y0, c.y());
+        y1 = std::max(y1, c.y());
         if (c.x() < a.x() || (c.x() == a.x() && c.y() < a.y())) a = c.head<2>();
         if (c.x() > b.x() || (c.x() == b.x() && c.y() > b.y())) b = c.head<2>();
       }
-      if (zmax > top) walls_.push_back({a, b});
+      if (std::abs(f.normal.z()) <= 0.2 && zmax > top) walls_.push_back({a, b});
+    }
+    if (x1 >= x0) {
+      i0_ = static_cast<long>(std::floor(x0 / r_)) - 1;
+      j0_ = static_cast<long>(std::floor(y0 / r_)) - 1;
+      w_ = std::min<long>(static_cast<long>(std::ceil(x1 / r_)) + 1 - i0_, 20000);
+      h_ = std::min<long>(static_cast<long>(std::ceil(y1 / r_)) + 1 - j0_, 20000);
+      cache_.assign(static_cast<std::size_t>(w_) * h_, kUnknown);
     }
   }
   float at(long i, long j) {
-    const unsigned long long key = (static_cast<unsigned long long>(static_cast<std::uint32_t>(i)) << 32) |
-                                   static_cast<std::uint32_t>(j);
-    const auto it = cache_.find(key);
-    if (it != cache_.end()) return it->second;
+    const bool kept = i >= i0_ && j >= j0_ && i < i0_ + w_ && j < j0_ + h_;
+    float* slot = kept ? &cache_[static_cast<std::size_t>(j - j0_) * w_ + (i - i0_)] : nullptr;
+    if (slot && *slot != kUnknown) return *slot;
     const Eigen::Vector2d c((i + 0.5) * r_, (j + 0.5) * r_);
     float h = std::numeric_limits<float>::quiet_NaN();
     bool wall = false;
@@ -68,15 +77,17 @@ class TruthHeights {
     Hit hit;
     if (!wall && scene_.raycast(Eigen::Vector3d(c.x(), c.y(), 100.0), -Eigen::Vector3d::UnitZ(), 200.0, hit))
       h = static_cast<float>(100.0 - hit.t);
-    cache_.emplace(key, h);
+    if (slot) *slot = h;
     return h;
   }
 
  private:
+  static constexpr float kUnknown = -1e30f;  ///< not cast yet
   const Scene& scene_;
   double r_;
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> walls_;  ///< footprints of the tall vertical faces
-  std::unordered_map<unsigned long long, float> cache_;
+  long i0_ = 0, j0_ = 0, w_ = 0, h_ = 0;                            ///< the kept cells (over the faces)
+  std::vector<float> cache_;
 };
 
 struct MapScore {
