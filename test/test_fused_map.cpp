@@ -146,6 +146,14 @@ TEST(FusedHeightMap, UncertaintyGrowsWithTheDistanceWalkedAndOldCellsAreForgotte
   EXPECT_NEAR(m.sigma(c, 2.0), std::hypot(s0, 2.0 * f.drift_per_metre), 1e-6);  // 2 m walked since
   m.addSweep(b, Eigen::Vector3d(0, 0, 1.4), 6.0, 1.0);
   EXPECT_FALSE(std::isnan(m.grid().heights[c]));  // 5 s old: kept
+  std::vector<float> sigmas, ages;
+  m.uncertainty(7.0, 1.5, sigmas, ages);  // what the message says at 7 s, 1.5 m walked
+  EXPECT_NEAR(ages[c], 6.0, 1e-5);
+  EXPECT_NEAR(sigmas[c], m.sigma(c, 1.5), 1e-6);
+  EXPECT_NEAR(sigmas[c], std::hypot(s0, 1.5 * f.drift_per_metre), 1e-6);
+  const std::size_t d = cellAt(m.grid(), 1.5, 0.0);
+  EXPECT_NEAR(ages[d], 1.0, 1e-5);
+  EXPECT_TRUE(std::isnan(ages[cellAt(m.grid(), -1.5, 0.0)]));  // never seen
   EXPECT_EQ(m.planes().size(), 2u);                // and its plane, for a planner, out of the laser's view
   m.addSweep(b, Eigen::Vector3d(0, 0, 1.4), 11.5, 1.0);
   EXPECT_TRUE(std::isnan(m.grid().heights[c]));  // 10.5 s old: forgotten

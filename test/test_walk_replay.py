@@ -147,3 +147,16 @@ def test_a_walk_replayed_in_odom():
                 known += not math.isnan(last.heights[iy * last.width + ix])
     print(f"{len(planes)} sweeps; the 1 m in front of the feet {known / total:.1%} known")
     assert known / total >= 0.9, f"{known} of {total} cells in front of the feet known"
+
+    # Each known cell's uncertainty and age: the ground in front of the feet
+    # was seen sweeps ago (the head cannot see it from here), and it is less
+    # certain than when it was seen (the distance walked since).
+    n = last.width * last.height
+    assert len(last.sigmas) == n and len(last.ages) == n
+    front = [iy * last.width + ix for iy in range(last.height) for ix in range(last.width)
+             if abs(last.origin.position.y + (iy + 0.5) * r) < 0.3
+             and x <= last.origin.position.x + (ix + 0.5) * r <= x + 0.3
+             and not math.isnan(last.heights[iy * last.width + ix])]
+    assert front
+    assert all(last.ages[c] > 0.5 for c in front), "cells right in front of the feet seen in the last sweep"
+    assert all(0.005 < last.sigmas[c] < 0.05 for c in front)

@@ -104,6 +104,20 @@ double FusedHeightMap::sigma(std::size_t c, double travelled) const {
 
 double FusedHeightMap::lastSeen(std::size_t c) const { return epoch_ + seen_[c]; }
 
+void FusedHeightMap::uncertainty(double now, double travelled, std::vector<float>& sigmas, std::vector<float>& ages) const {
+  const std::size_t n = grid_.heights.size();
+  sigmas.resize(n);
+  ages.resize(n);
+  const float t = static_cast<float>(now - epoch_), walked = static_cast<float>(travelled),
+              drift = static_cast<float>(p_.drift_per_metre);
+  for (std::size_t c = 0; c < n; ++c) {
+    const bool known = !std::isnan(grid_.heights[c]);
+    const float d = drift * std::max(0.0f, walked - walked_[c]);
+    sigmas[c] = known ? std::sqrt(var_[c] + d * d) : kNaN;
+    ages[c] = known ? t - seen_[c] : kNaN;
+  }
+}
+
 void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& sensor, double stamp, double travelled) {
   placed_ = true;
   if (!have_epoch_) {

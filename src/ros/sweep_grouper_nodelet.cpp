@@ -358,6 +358,7 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   auto map = boost::make_shared<HeightMap>();
   map->header = header;
   toMsg(grid, *map);
+  if (fused_) fused_->uncertainty(sweep.end, travelled_, map->sigmas, map->ages);
   planes_pub_.publish(planes);
   map_pub_.publish(map);
   if (fused_) {

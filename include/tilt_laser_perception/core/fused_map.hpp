@@ -71,6 +71,8 @@ class FusedHeightMap {
   double sigma(std::size_t cell, double travelled) const;
   /// When a cell was last seen [s] (NaN unknown).
   double lastSeen(std::size_t cell) const;
+  /// Every cell's sigma (as sigma()) and age (now minus when it was last seen) [m, s]; NaN unknown.
+  void uncertainty(double now, double travelled, std::vector<float>& sigmas, std::vector<float>& ages) const;
   const std::map<int, TerrainPlane>& planes() const { return planes_; }
   const FusedMapParams& params() const { return p_; }
 
