@@ -255,15 +255,10 @@ void HeadSimulator::scan(double t0, HeadScan& out) {
 }
 
 std::vector<float> trueHeightMap(const Scene& scene, double ox, double oy, double r, int width, int height) {
-  std::vector<float> h(static_cast<std::size_t>(width) * height, std::numeric_limits<float>::quiet_NaN());
-  const Eigen::Vector3d down(0, 0, -1);
-  for (int iy = 0; iy < height; ++iy) {
-    for (int ix = 0; ix < width; ++ix) {
-      const Eigen::Vector3d top(ox + (ix + 0.5) * r, oy + (iy + 0.5) * r, 100.0);
-      Hit hit;
-      if (scene.raycast(top, down, 200.0, hit)) h[static_cast<std::size_t>(iy) * width + ix] = static_cast<float>(100.0 - hit.t);
-    }
-  }
+  std::vector<float> h(static_cast<std::size_t>(width) * height);
+  for (int iy = 0; iy < height; ++iy)
+    for (int ix = 0; ix < width; ++ix)
+      h[static_cast<std::size_t>(iy) * width + ix] = static_cast<float>(scene.heightAt(ox + (ix + 0.5) * r, oy + (iy + 0.5) * r));
   return h;
 }
 

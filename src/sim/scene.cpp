@@ -1,6 +1,7 @@
 #include "tilt_laser_perception/sim/scene.hpp"
 
 #include <cmath>
+#include <limits>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -104,6 +105,12 @@ bool Scene::creaseBetween(int a, int b) const {
   if (a < 0 || b < 0 || a >= static_cast<int>(crease_.size()) || b >= static_cast<int>(crease_.size()))
     return false;
   return crease_[a][b] != 0;
+}
+
+double Scene::heightAt(double x, double y) const {
+  Hit hit;
+  return raycast(Eigen::Vector3d(x, y, 100.0), -Eigen::Vector3d::UnitZ(), 200.0, hit) ? 100.0 - hit.t
+                                                                                     : std::numeric_limits<double>::quiet_NaN();
 }
 
 bool Scene::raycast(const Eigen::Vector3d& o, const Eigen::Vector3d& dir, double max_t, Hit& hit) const {

@@ -67,16 +67,13 @@ class TruthHeights {
     float* slot = kept ? &cache_[static_cast<std::size_t>(j - j0_) * w_ + (i - i0_)] : nullptr;
     if (slot && *slot != kUnknown) return *slot;
     const Eigen::Vector2d c((i + 0.5) * r_, (j + 0.5) * r_);
-    float h = std::numeric_limits<float>::quiet_NaN();
     bool wall = false;
     for (const auto& [a, b] : walls_) {
       const Eigen::Vector2d ab = b - a;
       const double s = std::clamp((c - a).dot(ab) / std::max(ab.squaredNorm(), 1e-12), 0.0, 1.0);
       wall = wall || (a + s * ab - c).norm() <= 0.75 * r_;
     }
-    Hit hit;
-    if (!wall && scene_.raycast(Eigen::Vector3d(c.x(), c.y(), 100.0), -Eigen::Vector3d::UnitZ(), 200.0, hit))
-      h = static_cast<float>(100.0 - hit.t);
+    const float h = wall ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(scene_.heightAt(c.x(), c.y()));
     if (slot) *slot = h;
     return h;
   }

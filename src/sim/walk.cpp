@@ -14,10 +14,10 @@ constexpr double kGroundStep = 0.01;  // [m]
 constexpr double kGroundLength = 100.0;
 }  // namespace
 
-WalkModel::WalkModel(const Scene& scene, const WalkParams& params) : scene_(scene), p_(params) {
+WalkModel::WalkModel(const Scene& scene, const WalkParams& params) : p_(params) {
   if (!p_.walking() || !p_.follow_ground) return;
-  // The ground under the path: the highest surface below 3 m at every
-  // centimetre (a step's tread, the floor), 0 where there is none.
+  // The ground under the path: the highest surface at every centimetre (a
+  // step's tread, the floor), 0 where there is none.
   const double length = std::min(p_.distance + p_.speed * p_.step_period, kGroundLength);
   const int n = static_cast<int>(std::ceil(length / kGroundStep)) + 2;
   prefix_.assign(n + 1, 0.0);
@@ -25,11 +25,8 @@ WalkModel::WalkModel(const Scene& scene, const WalkParams& params) : scene_(scen
     Eigen::Vector2d xy;
     double heading = 0.0;
     path(k * kGroundStep, xy, heading);
-    Hit hit;
-    const double z = scene_.raycast(Eigen::Vector3d(xy.x(), xy.y(), 3.0), -Eigen::Vector3d::UnitZ(), 10.0, hit)
-                         ? 3.0 - hit.t
-                         : 0.0;
-    prefix_[k + 1] = prefix_[k] + z;
+    const double z = scene.heightAt(xy.x(), xy.y());
+    prefix_[k + 1] = prefix_[k] + (std::isnan(z) ? 0.0 : z);
   }
 }
 

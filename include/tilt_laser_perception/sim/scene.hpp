@@ -67,6 +67,8 @@ class Scene {
 
   /// Nearest hit of the ray origin + t*dir (dir unit) with t in (0, max_t].
   bool raycast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_t, Hit& hit) const;
+  /// The height of the highest surface above (x, y) (below 100 m) [m]; NaN where there is none.
+  double heightAt(double x, double y) const;
 
   /// True when faces a and b touch along an edge and are not coplanar (a crease between them).
   bool creaseBetween(int a, int b) const;

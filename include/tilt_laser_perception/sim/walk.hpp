@@ -59,7 +59,7 @@ const char* walkOptionsUsage();
 /// Thread-safe once made.
 class WalkModel {
  public:
-  /// `scene` (kept by reference) gives the ground's height for follow_ground.
+  /// `scene` gives the ground's height for follow_ground (read once, here).
   WalkModel(const Scene& scene, const WalkParams& params);
   const WalkParams& params() const { return p_; }
   /// Distance walked at t [m].
@@ -76,7 +76,6 @@ class WalkModel {
   void path(double s, Eigen::Vector2d& p, double& heading) const;
   /// Mean ground height over one step's length centred at s.
   double groundHeight(double s) const;
-  const Scene& scene_;
   WalkParams p_;
   std::vector<double> prefix_;  ///< prefix sums of the ground's height every 1 cm of the path (the first 100 m)
 };
