@@ -90,6 +90,53 @@ TEST(UtmClient, ReadsTheSensorAndItsRanges) {
   for (std::size_t i = 0; i < 1081; i += 10) EXPECT_NEAR(scan.ranges[i], room.last.ranges[i], 0.0006) << i;
 }
 
+TEST(UtmClient, StreamsMultiEchoScansAndFallsBackWithoutTheEw) {
+  // split_room from a fixed sensor: its depth jumps give mixed pixels with
+  // the far surface as a second echo (the simulator's mixed-pixel model).
+  for (const bool ew : {true, false}) {
+    Room room;
+    sim::UtmOptions uo;
+    uo.multi_echo = ew;
+    sim::UtmEmulator utm(room.source(), uo);
+    utm.start();
+    scip::UtmClientOptions co;
+    co.multi_echo = true;
+    co.intensity = true;
+    scip::UtmClient client(scip::makeTcpTransport("127.0.0.1", utm.port()), co);
+    std::string err;
+    ASSERT_TRUE(client.start(err)) << err;
+    EXPECT_EQ(client.multiEcho(), ew);
+    if (!ew) EXPECT_NE(client.lastWarning().find("no multi-echo"), std::string::npos) << client.lastWarning();
+    int second = 0, scans = 0;
+    for (int k = 0; k < 20; ++k) {
+      scip::UtmScan scan;
+      ASSERT_EQ(client.poll(scan, 1.0, err), scip::UtmClient::Result::Scan) << err;
+      ASSERT_EQ(scan.ranges.size(), 1081u);
+      ++scans;
+      if (!ew) {
+        EXPECT_TRUE(scan.echo_count.empty());
+        continue;
+      }
+      ASSERT_EQ(scan.echo_count.size(), 1081u);
+      ASSERT_EQ(scan.echo_ranges.size(), 1081u * scip::kMaxEchoes);
+      for (std::size_t i = 0; i < 1081; ++i) {
+        const float* r = &scan.echo_ranges[i * scip::kMaxEchoes];
+        ASSERT_GE(scan.echo_count[i], 1);
+        EXPECT_TRUE(r[0] == scan.ranges[i] || (std::isinf(r[0]) && std::isinf(scan.ranges[i]))) << i;
+        if (scan.echo_count[i] < 2) {
+          EXPECT_TRUE(std::isnan(r[1])) << i;
+          continue;
+        }
+        ++second;
+        EXPECT_GT(r[1], r[0] + 0.29f) << i;
+        EXPECT_FALSE(std::isnan(scan.echo_intensities[i * scip::kMaxEchoes + 1])) << i;
+      }
+    }
+    EXPECT_EQ(scans, 20);
+    if (ew) EXPECT_GT(second, 20) << "second echoes in 20 scans";
+  }
+}
+
 TEST(UtmClient, CountsBadScansAndReportsDeadConnections) {
   Room room;
   sim::UtmOptions o;

@@ -3,6 +3,10 @@
 // truth within noise, joint states at 100 Hz or more following the true tilt
 // within 0.2 degree, and scan stamps within 1 ms of the true time of the first
 // beam (both at the 99th percentile; RMS under 0.3 ms) while the emulated clock drifts.
+// With ~echoes (the driver's ~echo: multi): every scan also on `echoes`, 1081
+// beams of one to three echoes each, nearest first, `scan` carrying the echo
+// ~scan_echo names, and second echoes (the far side of a mixed pixel, the
+// surface behind a drop of rain).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +18,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/JointState.h>
 #include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/MultiEchoLaserScan.h>
 
 namespace {
 
@@ -46,6 +51,11 @@ struct Recorder {
   std::mutex m;
   std::vector<sensor_msgs::LaserScan> scans;
   std::vector<std::pair<double, double>> joints;  // stamp, position
+  std::vector<sensor_msgs::MultiEchoLaserScan> echoes;
+  void echo(const sensor_msgs::MultiEchoLaserScanConstPtr& s) {
+    std::lock_guard<std::mutex> l(m);
+    echoes.push_back(*s);
+  }
   void scan(const sensor_msgs::LaserScanConstPtr& s) {
     std::lock_guard<std::mutex> l(m);
     scans.push_back(*s);
@@ -64,12 +74,18 @@ TEST(TiltLaserDriver, AgainstTheEmulatedHead) {
   ros::NodeHandle nh, pnh("~");
   std::string truth_path;
   double record = 9.0, warmup = 3.0;
+  bool echoes = false;
+  std::string scan_echo = "first";
+  pnh.getParam("echoes", echoes);
+  pnh.getParam("scan_echo", scan_echo);
   pnh.getParam("truth", truth_path);
   pnh.getParam("record", record);
   pnh.getParam("warmup", warmup);
   Recorder rec;
   ros::Subscriber s1 = nh.subscribe("scan", 100, &Recorder::scan, &rec);
   ros::Subscriber s2 = nh.subscribe("joint_states", 1000, &Recorder::joint, &rec);
+  ros::Subscriber s3;
+  if (echoes) s3 = nh.subscribe("echoes", 100, &Recorder::echo, &rec);
   ros::AsyncSpinner spinner(2);
   spinner.start();
   // Wait for the stream (the driver retries while the emulator starts).
@@ -86,6 +102,7 @@ TEST(TiltLaserDriver, AgainstTheEmulatedHead) {
     ASSERT_GT(rec.scans.size(), 5u) << "no scans";
     rec.scans.clear();
     rec.joints.clear();
+    rec.echoes.clear();
   }
   ros::WallDuration(record).sleep();
   spinner.stop();
@@ -149,6 +166,36 @@ TEST(TiltLaserDriver, AgainstTheEmulatedHead) {
   EXPECT_LT(rms, 0.3);
   EXPECT_LT(median, 0.012);                 // data sheet noise: sigma 10 mm, rounded to mm
   EXPECT_GT(static_cast<double>(close) / beams, 0.98);  // the rest: mixed pixels at depth jumps
+
+  if (echoes) {
+    // Every scan's echoes, matched by stamp.
+    std::size_t matched = 0, beams_seen = 0, second = 0, third = 0, first_differs = 0 /* from scan */, out_of_order = 0, too_many = 0;
+    for (const auto& e : rec.echoes) {
+      ASSERT_EQ(e.ranges.size(), 1081u);
+      const auto it = std::find_if(rec.scans.begin(), rec.scans.end(),
+                                   [&](const sensor_msgs::LaserScan& s) { return s.header.stamp == e.header.stamp; });
+      if (it == rec.scans.end()) continue;
+      ++matched;
+      for (std::size_t i = 0; i < e.ranges.size(); ++i) {
+        const auto& r = e.ranges[i].echoes;
+        ++beams_seen;
+        too_many += r.size() > 3 || r.empty();
+        if (r.empty()) continue;
+        const float f = it->ranges[i], x = scan_echo == "last" ? r.back() : r.front();
+        first_differs += !(x == f || (std::isnan(x) && std::isnan(f)) || (std::isinf(x) && std::isinf(f)));
+        second += r.size() >= 2;
+        third += r.size() >= 3;
+        for (std::size_t k = 1; k < r.size(); ++k) out_of_order += !(r[k] > r[k - 1]);
+      }
+    }
+    std::printf("echoes: %zu of %zu scans; %zu beams, %zu with a second echo, %zu with a third\n", matched,
+                rec.scans.size(), beams_seen, second, third);
+    EXPECT_GE(matched + 2, rec.scans.size());  // (the first and last may fall outside the record)
+    EXPECT_EQ(too_many, 0u);
+    EXPECT_EQ(first_differs, 0u);
+    EXPECT_EQ(out_of_order, 0u);
+    EXPECT_GT(second, matched / 10);
+  }
 
   // Joint states: rate, and position against the true tilt at the same time.
   ASSERT_GT(rec.joints.size(), 200u);

@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <thread>
 
 #include "tilt_laser_perception/scip/codec.hpp"
@@ -70,6 +71,123 @@ class Client {
 using tilt_laser_perception::test::Room;
 
 }  // namespace
+
+namespace {
+/// A scan source of known echoes: every beam at 2 m, beam 100 a mixed pixel
+/// at 2.98 m with the far surface at 3.34 m behind it, beam 200 three
+/// echoes, beam 300 no return, beam 400 at 5 m (beyond MS's 4095 mm).
+ScanSource knownEchoes() {
+  return [](double t0, SimScan& out) {
+    out.stamp = t0;
+    out.ranges.assign(1081, 2.0f);
+    out.intensities.assign(1081, 1000.0f);
+    out.echoes.assign(1081, BeamEchoes());
+    for (auto& e : out.echoes) {
+      e.count = 1;
+      e.range[0] = 2.0f;
+      e.intensity[0] = 1000.0f;
+    }
+    const auto set = [&](int i, std::initializer_list<float> r) {
+      BeamEchoes& e = out.echoes[i];
+      e.count = 0;
+      for (float x : r) {
+        e.range[e.count] = x;
+        e.intensity[e.count] = 500.0f + e.count;
+        ++e.count;
+      }
+      out.ranges[i] = e.range[0];
+      out.intensities[i] = e.intensity[0];
+    };
+    set(100, {2.98f, 3.34f});
+    set(200, {0.8f, 2.5f, 7.25f});
+    set(400, {5.0f});
+    out.ranges[300] = std::numeric_limits<float>::infinity();
+    out.echoes[300].count = 0;
+  };
+}
+
+scip::ScanData scanOf(Client& c, const std::string& cmd, const std::string& status) {
+  scip::ScanRequest req;
+  EXPECT_EQ(scip::parseScanRequest(cmd, 1080, req), "00");
+  auto r = c.command(cmd, 1.0);
+  EXPECT_TRUE(r.has_value()) << cmd;
+  if (!r) return {};
+  EXPECT_EQ(r->status, req.continuous() ? "00" : status) << cmd;
+  if (req.continuous()) r = c.next(0.5);  // the first scan after the echo of the command
+  EXPECT_TRUE(r.has_value()) << cmd;
+  scip::ScanData d;
+  if (r) EXPECT_EQ(scip::decodeScan(*r, req, d), scip::DecodeError::None) << cmd;
+  return d;
+}
+}  // namespace
+
+TEST(UtmEmulator, MultiEchoAndTwoCharacterRangesAsTheProtocolDefinesThem) {
+  UtmEmulator utm(knownEchoes());
+  utm.start();
+  Client c(utm.port());
+  ASSERT_EQ(c.command("BM")->status, "00");
+  // HD: every echo; the single-echo commands give the first.
+  for (const std::string cmd : {"HD0000108000", "HE0000108000", "ND0000108000001"}) {
+    const scip::ScanData d = scanOf(c, cmd, "00");
+    ASSERT_EQ(d.echo_count.size(), 1081u) << cmd;
+    EXPECT_EQ(d.echo_count[0], 1);
+    EXPECT_EQ(d.echo_count[100], 2);
+    EXPECT_EQ(d.echo_ranges[100 * scip::kMaxEchoes + 0], 2980u);
+    EXPECT_EQ(d.echo_ranges[100 * scip::kMaxEchoes + 1], 3340u);
+    EXPECT_EQ(d.echo_count[200], 3);
+    EXPECT_EQ(d.echo_ranges[200 * scip::kMaxEchoes + 2], 7250u);
+    EXPECT_EQ(d.echo_count[300], 1);
+    EXPECT_EQ(d.ranges[300], 1u);  // no return: error code 1, one value
+    if (cmd[1] == 'E') EXPECT_EQ(d.echo_intensities[200 * scip::kMaxEchoes + 1], 501u);
+  }
+  ASSERT_EQ(c.command("BM")->status, "00");  // ND with one scan turned the laser off
+  const scip::ScanData gd = scanOf(c, "GD0000108000", "00");
+  EXPECT_TRUE(gd.echo_count.empty());
+  EXPECT_EQ(gd.ranges[100], 2980u);
+  EXPECT_EQ(gd.ranges[400], 5000u);
+  // A cluster of two: the step with the nearer first echo, with its echoes.
+  const scip::ScanData hd2 = scanOf(c, "HD0000108002", "00");
+  ASSERT_EQ(hd2.ranges.size(), 541u);
+  EXPECT_EQ(hd2.echo_count[100], 3);  // steps 200 and 201: 200's 0.8 m
+  EXPECT_EQ(hd2.echo_ranges[100 * scip::kMaxEchoes], 800u);
+  // GS: 5000 mm does not fit 12 bits: error code 1, not 5000 mod 4096 = 904.
+  const scip::ScanData gs = scanOf(c, "GS0000108000", "00");
+  EXPECT_EQ(gs.ranges[400], 1u);
+  EXPECT_EQ(gs.ranges[0], 2000u);
+}
+
+TEST(UtmEmulator, AUtm30lxWithoutEwAnswersMultiEchoAsUndefined) {
+  UtmOptions opt;
+  opt.multi_echo = false;
+  UtmEmulator utm(knownEchoes(), opt);
+  utm.start();
+  Client c(utm.port());
+  for (const char* cmd : {"ND0000108000000", "NE0000108000000", "HD0000108000", "HE0000108000"})
+    EXPECT_EQ(c.command(cmd)->status, "0E") << cmd;
+  EXPECT_EQ(c.command("MD0000108000001")->status, "00");
+}
+
+TEST(UtmEmulator, ARebootIsUnreachableForItsBootTime) {
+  UtmOptions opt;
+  opt.reboot_time = 1.0;
+  UtmEmulator utm(knownEchoes(), opt);
+  utm.start();
+  Client c(utm.port());
+  ASSERT_EQ(c.command("RB")->status, "01");
+  ASSERT_EQ(c.command("RB")->status, "00");
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto since = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  int refused = 0;
+  while (since() < 0.8) {
+    refused += !c.connectTo(utm.port());  // nothing listens: refused, not accepted and closed
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_GE(refused, 6);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ASSERT_TRUE(c.connectTo(utm.port()));
+  EXPECT_EQ(c.command("VV")->status, "00");
+}
 
 TEST(UtmEmulator, InfoCommandsAndTimeAdjust) {
   Room room;
@@ -183,7 +301,9 @@ TEST(UtmEmulator, ScanDataMatchesTheSimulation) {
 
 TEST(UtmEmulator, FaultsCanBeTriggeredAndSeen) {
   Room room;
-  UtmEmulator utm(room.source());
+  UtmOptions opt;
+  opt.reboot_time = 0.5;  // (the real 10 s: ARebootIsUnreachableForItsBootTime's kind of check)
+  UtmEmulator utm(room.source(), opt);
   utm.start();
   Client c(utm.port());
   scip::ScanRequest req;

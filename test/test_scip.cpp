@@ -1,6 +1,8 @@
 // SCIP 2.0 codec against examples worked by hand from the protocol's rules.
 #include <gtest/gtest.h>
 
+#include <tuple>
+
 #include <cmath>
 
 #include "tilt_laser_perception/scip/codec.hpp"
@@ -109,6 +111,107 @@ TEST(Scip, DecodesAReplyWorkedByHand) {
   r = reader.next();
   ASSERT_TRUE(r.has_value());
   EXPECT_NE(decodeScan(*r, req, scan), DecodeError::None);
+}
+
+namespace {
+/// A reply of `command` (an ND/NE/HD/HE line) around `data`, with time stamp 0.
+std::string replyWith(const std::string& command, const std::string& data) {
+  std::string r = command + "\n";
+  const std::string st = command[0] == 'N' ? "99" : "00";
+  r += st + checksum(st) + "\n";
+  appendLineWithSum("0000", r);
+  appendDataLines(data, r);
+  return r + "\n";
+}
+}  // namespace
+
+TEST(Scip, MultiEchoRepliesGiveEveryEchoOfEveryStep) {
+  // 40 steps (ND0000003901...), step i with 1 + i % 3 echoes of 1000 + 10 i +
+  // 500 k mm; every further echo after an '&', so that the 64-character lines
+  // break at every place within an echo, '&' included.
+  std::string data;
+  for (int i = 0; i < 40; ++i)
+    for (int k = 0; k <= i % 3; ++k) {
+      if (k > 0) data.push_back('&');
+      encode(1000 + 10 * i + 500 * k, 3, data);
+    }
+  ASSERT_GT(data.size(), 3u * 64u);
+  for (const std::string& cmd : {std::string("ND0000003901000"), std::string("HD0000003901")}) {
+    ResponseReader reader;
+    const std::string reply = replyWith(cmd, data);
+    reader.feed(reply.data(), reply.size());
+    auto r = reader.next();
+    ASSERT_TRUE(r.has_value());
+    ScanRequest req;
+    ASSERT_EQ(parseScanRequest(cmd, 1080, req), "00");
+    EXPECT_TRUE(req.multiEcho());
+    EXPECT_EQ(req.continuous(), cmd[0] == 'N');
+    ScanData scan;
+    ASSERT_EQ(decodeScan(*r, req, scan), DecodeError::None) << cmd;
+    ASSERT_EQ(scan.ranges.size(), 40u);
+    ASSERT_EQ(scan.echo_count.size(), 40u);
+    for (int i = 0; i < 40; ++i) {
+      ASSERT_EQ(scan.echo_count[i], 1 + i % 3) << i;
+      EXPECT_EQ(scan.ranges[i], 1000u + 10 * i) << i;  // the first echo
+      for (int k = 0; k < scan.echo_count[i]; ++k)
+        EXPECT_EQ(scan.echo_ranges[i * kMaxEchoes + k], 1000u + 10 * i + 500 * k) << i << " " << k;
+    }
+  }
+  // With intensities (NE): range, intensity per echo.
+  std::string ne;
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k <= i; ++k) {
+      if (k > 0) ne.push_back('&');
+      encode(2000 + 100 * k, 3, ne);
+      encode(300 + k, 3, ne);
+    }
+  {
+    ResponseReader reader;
+    const std::string reply = replyWith("NE0000000201000", ne);
+    reader.feed(reply.data(), reply.size());
+    auto r = reader.next();
+    ScanRequest req;
+    ASSERT_EQ(parseScanRequest("NE0000000201000", 1080, req), "00");
+    ScanData scan;
+    ASSERT_EQ(decodeScan(*r, req, scan), DecodeError::None);
+    EXPECT_EQ(scan.echo_count[2], 3);
+    EXPECT_EQ(scan.echo_ranges[2 * kMaxEchoes + 2], 2200u);
+    EXPECT_EQ(scan.echo_intensities[2 * kMaxEchoes + 2], 302u);
+    EXPECT_EQ(scan.intensities[1], 300u);
+  }
+  // A fourth echo is no SCIP reply; neither is an echo cut short.
+  std::string four;
+  for (int k = 0; k < 4; ++k) {
+    if (k > 0) four.push_back('&');
+    encode(1000, 3, four);
+  }
+  std::string cut;
+  encode(1000, 3, cut);
+  cut += "&0";
+  for (const auto& [bad, expected] : {std::make_pair(four, DecodeError::BadCharacter),
+                                      std::make_pair(cut, DecodeError::Truncated)}) {
+    ResponseReader reader;
+    const std::string reply = replyWith("ND0000000001000", bad);
+    reader.feed(reply.data(), reply.size());
+    auto r = reader.next();
+    ScanRequest req;
+    parseScanRequest("ND0000000001000", 1080, req);
+    ScanData scan;
+    EXPECT_EQ(decodeScan(*r, req, scan), expected);
+  }
+}
+
+TEST(Scip, TwoCharacterRangesBeyond4095AreNoObjectNotModulo) {
+  // MS/GS send 12 bits: 5000 mm modulo 4096 would read as a valid 904 mm.
+  for (const auto& [mm, chars, expected] : {std::make_tuple(5000u, 2, 1u), std::make_tuple(4095u, 2, 4095u),
+                                            std::make_tuple(4096u, 2, 1u), std::make_tuple(5000u, 3, 5000u),
+                                            std::make_tuple(3u, 2, 3u)}) {
+    std::string s;
+    encodeRange(mm, chars, s);
+    ASSERT_EQ(s.size(), static_cast<std::size_t>(chars));
+    EXPECT_EQ(*decode(s.data(), chars), expected) << mm << " in " << chars;
+  }
+  EXPECT_TRUE(std::isinf(rangeToMeters(1)));  // what the driver makes of it: no return
 }
 
 TEST(Scip, Rep117ErrorCodes) {

@@ -241,6 +241,94 @@ TEST(LidarSim, AWideFootprintGivesARunOfBeamsBetweenTheSurfaces) {
   EXPECT_EQ(runs, 2);  // one at each end of the board
 }
 
+TEST(LidarSim, AMixedPixelHasTheFarSurfaceAsItsLastEcho) {
+  // The board at 1 m before the wall at x = 3 m, footprint 1 degree: the
+  // beams at the board's ends are mixed pixels (the single-echo range, the
+  // first echo); where the wall's share of the footprint lies beyond the first
+  // echo by more than the echo separation, a second echo at the wall follows.
+  NoiseParams n = exact();
+  n.footprint = 1.0 * kDeg;
+  const Scene s = sim::loadScene("figure3_board_1m");
+  const LidarModel m;
+  LidarSimulator sim(s, m, n, 3);
+  auto scan = sim.scan(0, kOrigin);
+  int mixed = 0, mixed_resolved = 0, multi = 0;
+  std::vector<int> jumps;
+  for (const auto& e : scan.edges)
+    if (e.kind == core::EdgeKind::Jump) jumps.push_back(e.index);
+  ASSERT_EQ(jumps.size(), 2u);
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
+    const sim::BeamEchoes& e = scan.echoes[i];
+    if (!std::isfinite(scan.ranges[i])) {
+      EXPECT_EQ(e.count, 0) << i;
+      continue;
+    }
+    ASSERT_GE(e.count, 1) << i;
+    EXPECT_EQ(e.range[0], scan.ranges[i]) << i;  // the first echo is the single-echo range
+    EXPECT_EQ(e.mixed[0], scan.mixed[i]) << i;
+    mixed += scan.mixed[i];
+    if (e.count == 1) continue;
+    ++multi;
+    EXPECT_EQ(e.count, 2) << i;
+    const double wall = 3.0 / std::cos(m.angle(static_cast<int>(i)));
+    EXPECT_NEAR(e.range[1], wall, 0.03) << "the second echo is the wall: " << i;
+    EXPECT_GT(e.range[1], e.range[0] + n.echo_separation) << i;
+    EXPECT_LT(e.intensity[1], e.intensity[0]) << "the wall has the smaller share here: " << i;
+    const int d = std::min(std::abs(static_cast<int>(i) - jumps[0]), std::abs(static_cast<int>(i) - jumps[1]));
+    EXPECT_LE(d, 4) << "only beams whose footprint straddles a board end: " << i;
+    mixed_resolved += scan.mixed[i];
+  }
+  EXPECT_GE(mixed, 4);
+  EXPECT_GE(multi, 4);           // at least two at each end of the board
+  EXPECT_GE(mixed_resolved, 4);  // most mixed pixels have the wall behind them
+
+  // The last echo: the wall where it was resolved, no mixed pixel there.
+  sim::selectEcho(scan, scip::EchoChoice::Last);
+  int mixed_last = 0;
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) mixed_last += scan.mixed[i];
+  EXPECT_EQ(mixed_last, mixed - mixed_resolved);
+}
+
+TEST(LidarSim, RainGivesAWeakNearFirstEchoAndTheSurfaceLater) {
+  NoiseParams n = exact();
+  n.rain_probability = 0.2;
+  const Scene s = wallScene(5.0, 20.0);
+  LidarSimulator sim(s, LidarModel(), n, 7);
+  auto scan = sim.scan(0, kOrigin);
+  int drops = 0, beams = 0;
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
+    const sim::BeamEchoes& e = scan.echoes[i];
+    if (e.count == 0) continue;
+    if (!std::isfinite(scan.true_ranges[i])) {  // no surface: a drop is the only echo
+      EXPECT_EQ(e.count, 1) << i;
+      EXPECT_GE(e.range[0], 0.3f);
+      EXPECT_LE(e.range[0], 4.0f);
+      continue;
+    }
+    ++beams;
+    if (e.count == 1) {
+      EXPECT_NEAR(e.range[0], scan.true_ranges[i], 1e-3) << i;
+      continue;
+    }
+    ++drops;
+    EXPECT_EQ(e.count, 2) << i;
+    EXPECT_GE(e.range[0], 0.3f);
+    EXPECT_LE(e.range[0], 4.0f);
+    EXPECT_EQ(scan.ranges[i], e.range[0]);          // the single-echo range is the drop's
+    EXPECT_NEAR(e.range[1], scan.true_ranges[i], 1e-3) << i;  // the wall
+    EXPECT_LT(e.intensity[0], e.intensity[1]) << i;  // a drop is weaker than the wall
+  }
+  EXPECT_GT(beams, 500);
+  EXPECT_NEAR(static_cast<double>(drops) / beams, 0.2, 0.05);
+  // The last and the strongest echo see through the rain.
+  for (const auto choice : {scip::EchoChoice::Last, scip::EchoChoice::Strongest}) {
+    sim::SimScan copy = scan;
+    sim::selectEcho(copy, choice);
+    for (std::size_t i = 0; i < copy.ranges.size(); ++i)
+      if (std::isfinite(copy.true_ranges[i])) EXPECT_NEAR(copy.ranges[i], copy.true_ranges[i], 1e-3) << i;
+  }
+}
+
 TEST(GroundTruth, BoardSceneHasTwoJumpsAndTwoBoundaries) {
   const Scene s = sim::loadScene("figure3_board_2m");
   LidarSimulator sim(s, LidarModel(), exact(), 1);

@@ -73,8 +73,10 @@ void LaserDriver::run() {
         log_(Level::Info, "laser " + i.model + " serial " + i.serial + " firmware " + i.firmware + " (" +
                               std::to_string(i.amax - i.amin + 1) + " steps, " + std::to_string(i.scan_rpm) +
                               " rpm) streaming from " + client_->describe());
+      if (opt_.client.multi_echo && !client_->multiEcho() && log_) log_(Level::Warn, "laser: " + client_->lastWarning());
       std::lock_guard<std::mutex> l(status_mutex_);
       status_.streaming = true;
+      status_.multi_echo = client_->multiEcho();
       status_.info = i;
       status_.last_error.clear();
     }

@@ -5,6 +5,7 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/JointState.h>
 #include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/MultiEchoLaserScan.h>
 
 #include "tilt_laser_perception/TiltSweep.h"
 
@@ -47,6 +48,23 @@ void TiltLaserDriverNodelet::onInit() {
   pnh.param("cluster", lo.client.cluster, 1);
   pnh.param("skip", lo.client.skip, 0);
   pnh.param("intensity", lo.client.intensity, false);
+  // ~echo: first (MD/ME, any UTM-30LX), last or strongest (ND/NE, the -EW's
+  // multi-echo), multi (ND/NE: every echo on `echoes`, `scan` from ~scan_echo).
+  std::string echo, scan_echo;
+  pnh.param<std::string>("echo", echo, "first");
+  pnh.param<std::string>("scan_echo", scan_echo, "first");
+  multi_echo_out_ = echo == "multi";
+  if (!multi_echo_out_ && !scip::parseEchoChoice(echo, scan_echo_)) {
+    NODELET_ERROR("~echo must be first, last, strongest or multi, got '%s': using first", echo.c_str());
+    echo = "first";
+  }
+  if (multi_echo_out_ && !scip::parseEchoChoice(scan_echo, scan_echo_)) {
+    NODELET_ERROR("~scan_echo must be first, last or strongest, got '%s': using first", scan_echo.c_str());
+    scan_echo_ = scip::EchoChoice::First;
+  }
+  lo.client.multi_echo = multi_echo_out_ || scan_echo_ != scip::EchoChoice::First;
+  // The strongest echo needs the echoes' intensities.
+  if (scan_echo_ == scip::EchoChoice::Strongest) lo.client.intensity = true;
   pnh.param("watchdog", lo.client.watchdog, 1.0);
   pnh.param("time_offset", lo.client.time_offset, 0.0);
   pnh.param("clock_sync_period", lo.client.ii_period, 0.1);
@@ -108,6 +126,7 @@ void TiltLaserDriverNodelet::onInit() {
   so.direction = direction;
 
   scan_pub_ = nh.advertise<sensor_msgs::LaserScan>("scan", 20);
+  if (multi_echo_out_) echoes_pub_ = nh.advertise<sensor_msgs::MultiEchoLaserScan>("echoes", 20);
   joint_pub_ = nh.advertise<sensor_msgs::JointState>("joint_states", 100);
   sweep_pub_ = nh.advertise<TiltSweep>("tilt_sweep", 10);
 
@@ -143,8 +162,44 @@ void TiltLaserDriverNodelet::onInit() {
           msg->scan_time = s.scan_time;
           msg->range_min = s.range_min;
           msg->range_max = s.range_max;
-          msg->ranges = s.ranges;
-          msg->intensities = s.intensities;
+          const std::size_t n = s.ranges.size();
+          const bool multi = !s.echo_count.empty();
+          const bool with_intensity = !s.intensities.empty();
+          if (multi && multi_echo_out_) {
+            auto e = boost::make_shared<sensor_msgs::MultiEchoLaserScan>();
+            e->header = msg->header;
+            e->angle_min = s.angle_min;
+            e->angle_max = s.angle_max;
+            e->angle_increment = s.angle_increment;
+            e->time_increment = s.time_increment;
+            e->scan_time = s.scan_time;
+            e->range_min = s.range_min;
+            e->range_max = s.range_max;
+            e->ranges.resize(n);
+            if (with_intensity) e->intensities.resize(n);
+            for (std::size_t i = 0; i < n; ++i) {
+              const std::size_t at = i * scip::kMaxEchoes;
+              e->ranges[i].echoes.assign(s.echo_ranges.begin() + at, s.echo_ranges.begin() + at + s.echo_count[i]);
+              if (with_intensity)
+                e->intensities[i].echoes.assign(s.echo_intensities.begin() + at,
+                                                s.echo_intensities.begin() + at + s.echo_count[i]);
+            }
+            echoes_pub_.publish(e);
+          }
+          if (multi && scan_echo_ != scip::EchoChoice::First) {
+            msg->ranges.resize(n);
+            if (with_intensity) msg->intensities.resize(n);
+            for (std::size_t i = 0; i < n; ++i) {
+              const std::size_t at = i * scip::kMaxEchoes;
+              const int k = scip::chooseEcho(scan_echo_, s.echo_count[i],
+                                             with_intensity ? &s.echo_intensities[at] : nullptr);
+              msg->ranges[i] = s.echo_ranges[at + k];
+              if (with_intensity) msg->intensities[i] = s.echo_intensities[at + k];
+            }
+          } else {
+            msg->ranges = s.ranges;
+            msg->intensities = s.intensities;
+          }
           scan_pub_.publish(msg);
           scan_freq_->tick();
         },
@@ -212,6 +267,7 @@ void TiltLaserDriverNodelet::diagnoseLaser(diagnostic_updater::DiagnosticStatusW
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "scan rate %.1f Hz (expected 40)", s.scan_rate);
   else
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "streaming");
+  stat.add("echoes", s.multi_echo ? "multi-echo (ND/NE)" : "single (MD/ME)");
   stat.add("loads (1: never restarted)", loads_);
   stat.add("scans arrived late (last 10 s)", delayed);
   stat.add("scans stamped after they arrived (last 10 s)", impossible);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <thread>
 
 namespace tilt_laser_perception {
@@ -136,12 +137,24 @@ bool UtmClient::start(std::string& error) {
                                     info_.amin, info_.amax);
   const int end_step = std::clamp(static_cast<int>(std::floor(opt_.angle_max / step_angle + 1e-4)) + info_.afrt,
                                   start_step, info_.amax);
-  char cmd[32];
-  std::snprintf(cmd, sizeof(cmd), "%s%04d%04d%02d%01d00", opt_.intensity ? "ME" : "MD", start_step, end_step,
-                std::clamp(opt_.cluster, 1, 99), std::clamp(opt_.skip, 0, 9));
-  if (parseScanRequest(cmd, info_.amax, request_) != "00") return fail(std::string("bad scan request ") + cmd);
+  const auto request = [&](bool multi, std::string& cmd) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%c%c%04d%04d%02d%01d00", multi ? 'N' : 'M', opt_.intensity ? 'E' : 'D',
+                  start_step, end_step, std::clamp(opt_.cluster, 1, 99), std::clamp(opt_.skip, 0, 9));
+    cmd = buf;
+    return parseScanRequest(cmd, info_.amax, request_) == "00";
+  };
+  std::string cmd;
+  if (!request(opt_.multi_echo, cmd)) return fail("bad scan request " + cmd);
   if (!command(cmd, r, error)) return fail(error);
-  if (r.status != "00") return fail(std::string(cmd) + " refused with status " + r.status);
+  if (r.status != "00" && opt_.multi_echo) {
+    // A UTM-30LX without -EW knows no ND/NE ("0E", undefined command).
+    warning_ = cmd + " refused with status " + r.status + " (" + info_.product +
+               " has no multi-echo?): streaming single echoes";
+    if (!request(false, cmd)) return fail("bad scan request " + cmd);
+    if (!command(cmd, r, error)) return fail(error);
+  }
+  if (r.status != "00") return fail(cmd + " refused with status " + r.status);
   streaming_ = true;
   last_scan_time_ = wallNow();
   next_ii_ = last_scan_time_ + opt_.ii_period;
@@ -191,6 +204,17 @@ void UtmClient::handleScan(const Response& r, double recv, UtmScan& out, bool& g
   for (std::size_t i = 0; i < d.ranges.size(); ++i)
     out.ranges[i] = rangeToMeters(d.ranges[i], static_cast<std::uint32_t>(info_.dmin), static_cast<std::uint32_t>(info_.dmax));
   out.intensities.assign(d.intensities.begin(), d.intensities.end());
+  out.echo_count = d.echo_count;
+  out.echo_ranges.resize(d.echo_ranges.size());
+  out.echo_intensities.resize(d.echo_intensities.size());
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t k = 0; k < d.echo_ranges.size(); ++k) {
+    const bool there = static_cast<int>(k % kMaxEchoes) < d.echo_count[k / kMaxEchoes];
+    out.echo_ranges[k] = there ? rangeToMeters(d.echo_ranges[k], static_cast<std::uint32_t>(info_.dmin),
+                                               static_cast<std::uint32_t>(info_.dmax))
+                               : nan;
+    if (!d.echo_intensities.empty()) out.echo_intensities[k] = there ? static_cast<float>(d.echo_intensities[k]) : nan;
+  }
   ++counters_.scans;
   last_scan_time_ = recv;
   got = true;
@@ -208,7 +232,7 @@ UtmClient::Result UtmClient::poll(UtmScan& out, double max_wait, std::string& er
       const auto [r, t] = std::move(pending_.front());
       pending_.erase(pending_.begin());
       const std::string c = r.command();
-      if (c == "MD" || c == "ME" || c == "MS") {
+      if (c == "MD" || c == "ME" || c == "MS" || c == "ND" || c == "NE") {
         handleScan(r, t, out, got);
       } else if (c == "II" && ii_sent_ > 0) {
         for (const auto& kv : parseInfo(r)) {

@@ -17,6 +17,19 @@ void encode(std::uint32_t value, int chars, std::string& out) {
   for (int i = chars - 1; i >= 0; --i) out.push_back(static_cast<char>(((value >> (6 * i)) & 0x3F) + 0x30));
 }
 
+bool parseEchoChoice(const std::string& name, EchoChoice& out) {
+  if (name == "first") out = EchoChoice::First;
+  else if (name == "last") out = EchoChoice::Last;
+  else if (name == "strongest") out = EchoChoice::Strongest;
+  else return false;
+  return true;
+}
+
+void encodeRange(std::uint32_t mm, int chars, std::string& out) {
+  if (chars == 2 && mm > 0xFFF) mm = 1;
+  encode(mm, chars, out);
+}
+
 std::optional<std::uint32_t> decode(const char* p, int chars) {
   std::uint32_t v = 0;
   for (int i = 0; i < chars; ++i) {
@@ -153,22 +166,55 @@ DecodeError decodeScan(const Response& r, const ScanRequest& req, ScanData& out)
   const int enc = req.encoding();
   const int per_step = req.intensity() ? 2 * enc : enc;
   const std::size_t n = static_cast<std::size_t>(req.steps());
-  if (data->size() != n * static_cast<std::size_t>(per_step)) return DecodeError::Truncated;
+  if (!req.multiEcho() && data->size() != n * static_cast<std::size_t>(per_step)) return DecodeError::Truncated;
   out.ranges.resize(n);
   out.intensities.resize(req.intensity() ? n : 0);
   const char* p = data->data();
-  for (std::size_t i = 0; i < n; ++i) {
+  const char* const end = p + data->size();
+  // One echo: range (and intensity), `per_step` characters.
+  const auto echo = [&](std::uint32_t& range, std::uint32_t* intensity) {
+    if (end - p < per_step) return DecodeError::Truncated;
     const auto v = decode(p, enc);
     if (!v) return DecodeError::BadCharacter;
-    out.ranges[i] = *v;
+    range = *v;
     p += enc;
     if (req.intensity()) {
       const auto w = decode(p, enc);
       if (!w) return DecodeError::BadCharacter;
-      out.intensities[i] = *w;
+      if (intensity) *intensity = *w;
       p += enc;
     }
+    return DecodeError::None;
+  };
+  if (!req.multiEcho()) {
+    out.echo_count.clear();
+    out.echo_ranges.clear();
+    out.echo_intensities.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      const DecodeError e = echo(out.ranges[i], req.intensity() ? &out.intensities[i] : nullptr);
+      if (e != DecodeError::None) return e;
+    }
+    return DecodeError::None;
   }
+  out.echo_count.assign(n, 0);
+  out.echo_ranges.assign(n * kMaxEchoes, 0);
+  out.echo_intensities.assign(req.intensity() ? n * kMaxEchoes : 0, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int k = 0; k < kMaxEchoes; ++k) {
+      if (k > 0) {
+        if (p == end || *p != '&') break;
+        ++p;
+      }
+      const std::size_t at = i * kMaxEchoes + k;
+      const DecodeError e = echo(out.echo_ranges[at], req.intensity() ? &out.echo_intensities[at] : nullptr);
+      if (e != DecodeError::None) return e;
+      out.echo_count[i] = static_cast<std::uint8_t>(k + 1);
+    }
+    if (p != end && *p == '&') return DecodeError::BadCharacter;  // a fourth echo: not this protocol
+    out.ranges[i] = out.echo_ranges[i * kMaxEchoes];
+    if (req.intensity()) out.intensities[i] = out.echo_intensities[i * kMaxEchoes];
+  }
+  if (p != end) return DecodeError::Truncated;  // more data than steps
   return DecodeError::None;
 }
 

@@ -172,6 +172,7 @@ const char* rigOptionsUsage() {
          "    --time-offset-ms T   scan stamp minus true time      --line-jitter-ms J per-scan stamp error (sigma)\n"
          "    --joint-offset-deg O true minus reported tilt       --mount-error-deg R[,Y] laser roll (and yaw) on its link\n"
          "    --footprint-deg F    beam footprint (mixed pixels over several beams)\n"
+         "    --rain P             chance per beam of a drop between 0.3 and 4 m (a weak first echo)\n"
          "    --realistic          a real rig's set (README); options after it change single values\n";
 }
 
@@ -183,7 +184,7 @@ bool parseRigOption(int argc, char** argv, int& i, RigErrors& rig, NoiseParams& 
     return true;
   }
   static const char* with_value[] = {"--tilt-noise-deg", "--backlash-deg", "--time-offset-ms", "--line-jitter-ms",
-                                     "--joint-offset-deg", "--mount-error-deg", "--footprint-deg"};
+                                     "--joint-offset-deg", "--mount-error-deg", "--footprint-deg", "--rain"};
   if (std::find(std::begin(with_value), std::end(with_value), a) == std::end(with_value)) return false;
   if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
   const std::string v = argv[++i];
@@ -195,6 +196,10 @@ bool parseRigOption(int argc, char** argv, int& i, RigErrors& rig, NoiseParams& 
   else if (a == "--line-jitter-ms") rig.line_jitter = nonNegative(number(v)) * 1e-3;
   else if (a == "--joint-offset-deg") rig.joint_offset = number(v) * deg;
   else if (a == "--footprint-deg") noise.footprint = nonNegative(number(v)) * deg;
+  else if (a == "--rain") {
+    noise.rain_probability = nonNegative(number(v));
+    if (noise.rain_probability > 1.0) throw std::invalid_argument("--rain is a probability (0..1)");
+  }
   else {  // --mount-error-deg R or R,Y
     const std::size_t comma = v.find(',');
     rig.mount_roll = number(v.substr(0, comma)) * deg;

@@ -1,5 +1,6 @@
 #include "tilt_laser_perception/sim/lidar_sim.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -39,17 +40,19 @@ core::ScanView SimScan::view() const {
 
 LidarSimulator::LidarSimulator(const Scene& scene, const LidarModel& model, const NoiseParams& noise,
                                std::uint64_t seed)
-    : scene_(scene), model_(model), noise_(noise), rng_(seed) {}
+    : scene_(scene), model_(model), noise_(noise), rng_(seed), echo_rng_(seed ^ 0x9E3779B97F4A7C15ull) {}
 
 template <typename Dir>
 double LidarSimulator::footprintRange(const Eigen::Vector3d& o, const Dir& dirAt, double a, double w,
-                                      double cos_grazing, bool& several_faces) const {
+                                      double cos_grazing, bool& several_faces, SubReturn* returns,
+                                      int& n_returns) const {
   // Sub-rays across the footprint with a Gaussian profile (its edges at 2
   // sigma); each returns power ~ reflectivity * cos(incidence) / range^2
   // (an extended target filling its share of the footprint) when it is
   // detectable at all.
-  constexpr int kRays = 11;
+  constexpr int kRays = kFootprintRays;
   double sw = 0.0, swr = 0.0;
+  n_returns = 0;
   int first_face = -1;
   several_faces = false;
   for (int k = 0; k < kRays; ++k) {
@@ -63,6 +66,7 @@ double LidarSimulator::footprintRange(const Eigen::Vector3d& o, const Dir& dirAt
     several_faces = several_faces || h.face != first_face;
     sw += weight;
     swr += weight * h.t;
+    returns[n_returns++] = {h.t, weight, h.face};
   }
   return sw > 0.0 ? swr / sw : std::numeric_limits<double>::quiet_NaN();
 }
@@ -78,6 +82,7 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
   out.true_ranges.assign(n, nan);
   out.face.assign(n, -1);
   out.mixed.assign(n, 0);
+  out.echoes.assign(n, BeamEchoes());
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   const double cos_grazing = std::cos(noise_.grazing_limit_deg * M_PI / 180.0);
@@ -98,6 +103,14 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
     if (noise_.dropout_probability > 0.0 && uni(rng_) < noise_.dropout_probability) continue;
 
     double r = hit.t;
+    // Later echoes before noise: range, share of the beam's power, face, several faces.
+    struct Far {
+      double t, share;
+      int face;
+      bool several;
+    } far[scip::kMaxEchoes - 1];
+    int n_far = 0;
+    const double sep = noise_.echo_separation;
     if (noise_.footprint > model_.angle_increment) {
       // A footprint wider than the step: where its edges see other ranges
       // than its centre, the return is the power-weighted mean over it.
@@ -107,9 +120,35 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
       const bool b2 = scene_.raycast(o, dirAt(a + w), model_.max_detect_range, h2);
       if (!b1 || !b2 || std::abs(h1.t - hit.t) > 0.02 || std::abs(h2.t - hit.t) > 0.02) {
         bool faces = false;
-        r = footprintRange(o, dirAt, a, w, cos_grazing, faces);
+        SubReturn sub[kFootprintRays];
+        int n_sub = 0;
+        r = footprintRange(o, dirAt, a, w, cos_grazing, faces, sub, n_sub);
         if (!std::isfinite(r)) continue;
         out.mixed[i] = faces && std::abs(r - hit.t) > 0.03;  // between surfaces (not along one at grazing incidence)
+        // The returns beyond the first echo by more than the pulse resolution
+        // are echoes of their own: clusters split where the ranges jump by more.
+        std::sort(sub, sub + n_sub, [](const SubReturn& x, const SubReturn& y) { return x.t < y.t; });
+        double total = 0.0;
+        for (int k = 0; k < n_sub; ++k) total += sub[k].w;
+        double cw = 0.0, cwt = 0.0, last = 0.0;
+        int cface = -1;
+        bool several = false;
+        const auto flush = [&] {
+          if (cw > 0.0 && n_far < scip::kMaxEchoes - 1) far[n_far++] = {cwt / cw, cw / total, cface, several};
+          cw = cwt = 0.0;
+          cface = -1;
+          several = false;
+        };
+        for (int k = 0; k < n_sub; ++k) {
+          if (sub[k].t <= r + sep) continue;
+          if (cw > 0.0 && sub[k].t - last > sep) flush();
+          if (cface < 0) cface = sub[k].face;
+          several = several || sub[k].face != cface;
+          cw += sub[k].w;
+          cwt += sub[k].w * sub[k].t;
+          last = sub[k].t;
+        }
+        flush();
       }
     } else if (noise_.mixed_pixel_probability > 0.0) {
       // The beam's footprint reaches half a step either side: where it
@@ -120,6 +159,8 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
       if (b1 && b2 && std::abs(h1.t - h2.t) > 0.05 && uni(rng_) < noise_.mixed_pixel_probability) {
         r = h1.t + uni(rng_) * (h2.t - h1.t);
         out.mixed[i] = h1.face != h2.face;  // between surfaces (not along one at grazing incidence)
+        const Hit& f = h1.t > h2.t ? h1 : h2;
+        if (f.t > r + sep) far[n_far++] = {f.t, 0.5, f.face, false};
       }
     }
     r += noise_.sigma(r) * gauss(rng_);
@@ -127,8 +168,57 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
     if (r < model_.range_min) continue;
     out.ranges[i] = static_cast<float>(r);
     out.intensities[i] = static_cast<float>(8000.0 * refl * hit.cos_incidence / (1.0 + 0.05 * r) + 100.0);
+    BeamEchoes& e = out.echoes[i];
+    e.count = 1;
+    e.range[0] = out.ranges[i];
+    e.intensity[0] = out.intensities[i];
+    e.mixed[0] = out.mixed[i];
+    for (int k = 0; k < n_far; ++k) {
+      // (their own generator: the single-echo ranges stay as they were)
+      double t = far[k].t + noise_.sigma(far[k].t) * gauss(echo_rng_);
+      t = std::round(t * 1000.0) / 1000.0;
+      e.range[e.count] = static_cast<float>(t);
+      e.intensity[e.count] = static_cast<float>(
+          8000.0 * far[k].share * scene_.faces[far[k].face].reflectivity / (1.0 + 0.05 * t) + 100.0);
+      e.mixed[e.count] = far[k].several;
+      ++e.count;
+    }
+  }
+  if (noise_.rain_probability > 0.0) {
+    // A drop is a weak, near first echo; the surface's echoes follow it.
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int i = 0; i < n; ++i) {
+      if (u(echo_rng_) >= noise_.rain_probability) continue;
+      const float d = static_cast<float>(std::round((0.3 + 3.7 * u(echo_rng_)) * 1000.0) / 1000.0);
+      BeamEchoes& e = out.echoes[i];
+      if (e.count > 0 && d > e.range[0] - noise_.echo_separation) continue;  // merged into the surface's echo
+      const int keep = std::min<int>(e.count, scip::kMaxEchoes - 1);
+      for (int k = keep; k > 0; --k) {
+        e.range[k] = e.range[k - 1];
+        e.intensity[k] = e.intensity[k - 1];
+        e.mixed[k] = e.mixed[k - 1];
+      }
+      e.count = static_cast<std::uint8_t>(keep + 1);
+      e.range[0] = d;
+      e.intensity[0] = static_cast<float>(150.0 + 300.0 * u(echo_rng_));
+      e.mixed[0] = 0;
+      out.ranges[i] = d;
+      out.intensities[i] = e.intensity[0];
+      out.mixed[i] = 0;
+    }
   }
   out.edges = trueEdges(scene_, out.face, out.ranges, out.true_ranges);
+}
+
+void selectEcho(SimScan& scan, scip::EchoChoice choice) {
+  for (std::size_t i = 0; i < scan.echoes.size(); ++i) {
+    const BeamEchoes& e = scan.echoes[i];
+    if (e.count == 0) continue;
+    const int k = scip::chooseEcho(choice, e.count, e.intensity);
+    scan.ranges[i] = e.range[k];
+    scan.intensities[i] = e.intensity[k];
+    scan.mixed[i] = e.mixed[k];
+  }
 }
 
 std::vector<TrueEdge> trueEdges(const Scene& scene, const std::vector<int>& face, const std::vector<float>& ranges,

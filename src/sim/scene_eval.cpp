@@ -317,6 +317,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
     }
     if (t + 1e-9 >= next_scan + m.scan_period) {
       head_sim.scan(next_scan, hs);
+      if (o.echo != scip::EchoChoice::First) selectEcho(hs.scan, o.echo);
       const double s0 = cpuNow();
       splitter.split(hs.scan.view(), split);
       const double st = cpuNow() - s0;

@@ -69,25 +69,38 @@ double UtmEmulator::scanStart(long k) const {
   return boot_time_ + k * kPeriod * (1.0 + options_.motor_ppm * 1e-6) / (1.0 + options_.drift_ppm * 1e-6);
 }
 
-void UtmEmulator::start() {
+bool UtmEmulator::openListener() {
   listen_fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (listen_fd_ < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
+  if (listen_fd_ < 0) return false;
   const int one = 1;
   ::setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
-  addr.sin_port = htons(options_.port);
-  if (::inet_pton(AF_INET, options_.address.c_str(), &addr.sin_addr) != 1)
-    throw std::runtime_error("bad address " + options_.address);
+  addr.sin_port = htons(port_);
+  ::inet_pton(AF_INET, options_.address.c_str(), &addr.sin_addr);
   if (::bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) < 0 || ::listen(listen_fd_, 4) < 0) {
-    const std::string err = std::strerror(errno);
-    ::close(listen_fd_);
-    listen_fd_ = -1;
-    throw std::runtime_error("cannot listen on " + options_.address + ":" + std::to_string(options_.port) + ": " + err);
+    closeListener();
+    return false;
   }
   socklen_t len = sizeof(addr);
   ::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&addr), &len);
   port_ = ntohs(addr.sin_port);
+  return true;
+}
+
+void UtmEmulator::closeListener() {
+  if (listen_fd_ >= 0) ::close(listen_fd_);
+  listen_fd_ = -1;
+}
+
+void UtmEmulator::start() {
+  sockaddr_in addr{};
+  if (::inet_pton(AF_INET, options_.address.c_str(), &addr.sin_addr) != 1)
+    throw std::runtime_error("bad address " + options_.address);
+  port_ = options_.port;
+  if (!openListener())
+    throw std::runtime_error("cannot listen on " + options_.address + ":" + std::to_string(options_.port) + ": " +
+                             std::strerror(errno));
   powerUp(hostNow(), options_.clock_offset_ms);
   running_ = true;
   thread_ = std::thread([this] { run(); });
@@ -97,8 +110,7 @@ void UtmEmulator::stop() {
   running_ = false;
   if (thread_.joinable()) thread_.join();
   closeClient();
-  if (listen_fd_ >= 0) ::close(listen_fd_);
-  listen_fd_ = -1;
+  closeListener();
 }
 
 void UtmEmulator::closeClient() {
@@ -139,6 +151,15 @@ void UtmEmulator::run() {
       ++stats_.reboots;
       unreachable_until = now + options_.reboot_time;
       powerUp(unreachable_until, 0.37);  // the clock restarts near 0 once it is back
+      // Powered down and booting: nothing listens (a connection is refused),
+      // where the old emulator accepted and closed at once.
+      closeListener();
+    }
+    if (listen_fd_ < 0) {
+      if (now < unreachable_until || !openListener()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        continue;
+      }
     }
     if (drop_.exchange(false) && client_fd_ >= 0) {
       closeClient();
@@ -158,9 +179,7 @@ void UtmEmulator::run() {
     if (fds[0].revents & POLLIN) {
       const int fd = ::accept(listen_fd_, nullptr, nullptr);
       if (fd >= 0) {
-        if (now < unreachable_until) {
-          ::close(fd);  // still rebooting
-        } else {
+        {
           closeClient();  // the sensor serves one client: a new connection replaces the old one
           client_fd_ = fd;
           const int one = 1;
@@ -209,7 +228,8 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
   if (cmd == "VV") {
     reply = echo + statusLine("00");
     infoLine("VEND:Hokuyo Automatic Co.,Ltd.", reply);
-    infoLine("PROD:SOKUIKI Sensor TOP-URG UTM-30LX-EW", reply);
+    infoLine(options_.multi_echo ? "PROD:SOKUIKI Sensor TOP-URG UTM-30LX-EW" : "PROD:SOKUIKI Sensor TOP-URG UTM-30LX",
+             reply);
     infoLine("FIRM:1.1.4(14/Jun./2011)", reply);
     infoLine("PROT:SCIP 2.0", reply);
     infoLine("SERI:" + options_.serial, reply);
@@ -218,7 +238,8 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
   }
   if (cmd == "PP") {
     reply = echo + statusLine("00");
-    for (const char* kv : {"MODL:UTM-30LX-EW", "DMIN:23", "DMAX:60000", "ARES:1440", "AMIN:0", "AMAX:1080",
+    infoLine(options_.multi_echo ? "MODL:UTM-30LX-EW" : "MODL:UTM-30LX", reply);
+    for (const char* kv : {"DMIN:23", "DMAX:60000", "ARES:1440", "AMIN:0", "AMAX:1080",
                            "AFRT:540", "SCAN:2400"})
       infoLine(kv, reply);
     reply += "\n";
@@ -228,7 +249,7 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
     reply = echo + statusLine("00");
     char t[32];
     std::snprintf(t, sizeof(t), "TIME:%06X", sensorStamp(now));
-    infoLine("MODL:UTM-30LX-EW", reply);
+    infoLine(options_.multi_echo ? "MODL:UTM-30LX-EW" : "MODL:UTM-30LX", reply);
     infoLine(std::string("LASR:") + (laser_on_ ? "ON" : "OFF"), reply);
     infoLine("SCSP:Initial(2400[rpm])", reply);
     infoLine(time_adjust_ ? "MESM:Time Adjust Mode" : "MESM:Measuring by Normal Mode", reply);
@@ -285,7 +306,9 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
     }
     return simple("01");
   }
-  if (cmd == "MD" || cmd == "MS" || cmd == "ME" || cmd == "GD" || cmd == "GS" || cmd == "GE") {
+  const bool multi_cmd = cmd == "ND" || cmd == "NE" || cmd == "HD" || cmd == "HE";
+  if (multi_cmd && !options_.multi_echo) return simple("0E");
+  if (cmd == "MD" || cmd == "MS" || cmd == "ME" || cmd == "GD" || cmd == "GS" || cmd == "GE" || multi_cmd) {
     scip::ScanRequest req;
     const std::string status = scip::parseScanRequest(line, kMaxStep, req);
     if (status != "00") return simple(status.c_str());
@@ -296,6 +319,7 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
     req_cluster_ = req.cluster;
     req_enc_ = req.encoding();
     req_intensity_ = req.intensity();
+    req_multi_ = req.multiEcho();
     req_tag_ = req.tag;
     if (req.continuous()) {
       req_skip_ = req.skip;
@@ -323,7 +347,7 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
 void UtmEmulator::sendScan(long k, double /*now*/) {
   const double t0 = scanStart(k);
   source_(t0, scan_);
-  const bool continuous = req_cmd_[0] == 'M';
+  const bool continuous = req_cmd_[0] == 'M' || req_cmd_[0] == 'N';
   std::string msg;
   if (continuous) {
     int remaining = 0;
@@ -349,23 +373,39 @@ void UtmEmulator::sendScan(long k, double /*now*/) {
   const int cluster = std::max(1, req_cluster_);
   const int n = static_cast<int>(scan_.ranges.size());
   const int values = (req_end_ - req_start_) / cluster + 1;
+  const auto intensityValue = [&](float i) {
+    return static_cast<std::uint32_t>(std::clamp(i, 0.0f, 262143.0f));
+  };
   for (int v = 0; v < values; ++v) {
     const int s = req_start_ + v * cluster;
+    // A cluster reports its step with the nearest range (SCIP 2.0, MD: "the
+    // step having minimum measurement value (excluding error)").
     std::uint32_t best = 0, err = 0;
-    float inten = 0.0f;
+    int best_j = -1;
     for (int j = s; j < s + cluster && j <= req_end_ && j < n; ++j) {
       const std::uint32_t mm = toMillimetres(scan_.ranges[j]);
       if (mm >= 23) {
         if (best == 0 || mm < best) {
           best = mm;
-          inten = j < static_cast<int>(scan_.intensities.size()) ? scan_.intensities[j] : 0.0f;
+          best_j = j;
         }
       } else if (err == 0) {
         err = mm;
       }
     }
-    scip::encode(best ? best : (err ? err : 1), req_enc_, data);
-    if (req_intensity_) scip::encode(static_cast<std::uint32_t>(std::clamp(inten, 0.0f, 262143.0f)), req_enc_, data);
+    const float inten =
+        best_j >= 0 && best_j < static_cast<int>(scan_.intensities.size()) ? scan_.intensities[best_j] : 0.0f;
+    scip::encodeRange(best ? best : (err ? err : 1), req_enc_, data);
+    if (req_intensity_) scip::encode(intensityValue(inten), req_enc_, data);
+    if (req_multi_ && best_j >= 0 && best_j < static_cast<int>(scan_.echoes.size())) {
+      // Multi-echo: every further echo of that step after an '&'.
+      const BeamEchoes& e = scan_.echoes[best_j];
+      for (int k = 1; k < e.count; ++k) {
+        data.push_back('&');
+        scip::encodeRange(toMillimetres(e.range[k]), req_enc_, data);
+        if (req_intensity_) scip::encode(intensityValue(e.intensity[k]), req_enc_, data);
+      }
+    }
   }
   std::string lines;
   scip::appendDataLines(data, lines);

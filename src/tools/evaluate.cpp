@@ -15,13 +15,14 @@ static void usage() {
   std::fprintf(stderr,
                "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--no-skew] [--fixed D]\n"
                "                [--verbose] [--dump PREFIX] [--calibration FILE | --errors-known]\n"
-               "                [--walk SPEED [--path straight|turn|step] [--no-pose] ...]\n"
+               "                [--walk SPEED [--path straight|turn|step] [--no-pose] ...] [--echo first|last|strongest]\n"
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
                "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them\n"
                "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n"
                "  --calibration FILE  apply calibrate's estimate (joint offset, time offset, mount) to the believed head\n"
                "  --errors-known      apply the rig errors' own values instead (what a perfect calibration gives)\n"
+               "  --echo E    the echo the pipeline takes, as the driver's ~echo (first: the single-echo range)\n"
                "  --no-pose   (walking) every line of a sweep with the odometry's pose at the sweep's end, not its own\n"
                "  the summary's front_coverage and fused_front_coverage: the single sweep's and the fused map's cells known\n"
                "  in the 1 m x 1 m in front of the feet, over the sweeps after the robot walked 1 m (all when it stands)\n"
@@ -46,6 +47,9 @@ int main(int argc, char** argv) {
     else if (a == "--speed" && v) o.profile.speed = std::atof(argv[++i]);
     else if (a == "--no-skew") o.sweep.per_beam = false;
     else if (a == "--no-pose") o.pose_per_line = false;
+    else if (a == "--echo" && v) {
+      if (!scip::parseEchoChoice(argv[++i], o.echo)) { usage(); return 2; }
+    }
     else if (a == "--fixed" && v) { o.split.mode = core::SplitMode::Fixed; o.split.d_min = std::atof(argv[++i]); }
     else if (a == "--verbose") verbose = true;
     else if (a == "--dump" && v) o.dump_prefix = argv[++i];

@@ -32,9 +32,11 @@ void usage() {
       "usage: tilt_laser_sim --scene NAME [--protocol 1|2] [--seed N] [--port P] [--truth FILE]\n"
       "                      [--fault SPEC]... [--servo-link PATH] [--id N] [--drift PPM]\n"
       "                      [--clock-offset MS] [--motor-ppm PPM] [--noise datasheet|percent|none]\n"
-      "                      [--initial-tilt DEG]\n"
+      "                      [--initial-tilt DEG] [--laser-boot-time S] [--no-multi-echo]\n"
       "                      [--head FILE] [--duration S] [--walk SPEED ... --walk-clock FILE]\n"
       "Prints the laser's address (host:port) and the servo's device path, one per line.\n"
+      "  --laser-boot-time S: the laser is unreachable this long after a reboot (default 10, its data sheet's)\n"
+      "  --no-multi-echo: a UTM-30LX without -EW (ND/NE/HD/HE answered 0E)\n"
       "Fault SPEC is NAME@T[:ARG], T seconds after start:\n"
       "  laser: drop@T  silent@T[:DURATION]  corrupt@T[:SCANS]  truncate@T[:SCANS]  delay@T:MS (0 ends it)  reboot@T\n"
       "  servo: servo-noreply@T[:DURATION]  servo-badcrc@T[:N]  servo-garbage@T[:N]\n"
@@ -106,6 +108,8 @@ int main(int argc, char** argv) {
     else if (a == "--clock-offset" && v) utm_opt.clock_offset_ms = std::atof(argv[++i]);
     else if (a == "--motor-ppm" && v) utm_opt.motor_ppm = std::atof(argv[++i]);
     else if (a == "--initial-tilt" && v) initial_tilt_deg = std::atof(argv[++i]);
+    else if (a == "--laser-boot-time" && v) utm_opt.reboot_time = std::max(0.0, std::atof(argv[++i]));
+    else if (a == "--no-multi-echo") utm_opt.multi_echo = false;
     else if (a == "--head" && v) head_path = argv[++i];
     else if (a == "--duration" && v) duration = std::atof(argv[++i]);
     else if (a == "--noise" && v) {

@@ -31,6 +31,7 @@ struct LaserDriverOptions {
 /// A snapshot for diagnostics.
 struct LaserStatus {
   bool streaming = false;
+  bool multi_echo = false;     ///< streaming ND/NE
   scip::SensorInfo info;
   scip::UtmCounters counters;
   double scan_rate = 0.0;      ///< scans per second over the last second [Hz]

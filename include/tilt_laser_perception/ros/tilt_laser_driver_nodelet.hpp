@@ -43,7 +43,9 @@ class TiltLaserDriverNodelet : public nodelet::Nodelet {
   int loads_ = 1;  // a respawned manager loads the driver again: said in the diagnostics for a minute
   ros::WallTime loaded_at_;
   std::unique_ptr<driver::ServoDriver> servo_;
-  ros::Publisher scan_pub_, joint_pub_, sweep_pub_;
+  ros::Publisher scan_pub_, joint_pub_, sweep_pub_, echoes_pub_;
+  bool multi_echo_out_ = false;                             ///< ~echo: multi
+  scip::EchoChoice scan_echo_ = scip::EchoChoice::First;  ///< the echo `scan` carries
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   std::unique_ptr<diagnostic_updater::FrequencyStatus> scan_freq_, joint_freq_;
   double scan_freq_min_ = 38.0, scan_freq_max_ = 42.0, joint_freq_min_ = 100.0, joint_freq_max_ = 1000.0;

@@ -27,6 +27,9 @@ struct UtmClientOptions {
   int cluster = 1;                 ///< adjacent steps merged into one range (1..99)
   int skip = 0;                    ///< scans skipped between those sent (0..9)
   bool intensity = false;          ///< ME (ranges and intensities) instead of MD
+  /// ND/NE (the -EW's multi-echo) instead of MD/ME; a sensor that refuses them
+  /// is streamed with MD/ME and lastWarning() says so.
+  bool multi_echo = false;
   double watchdog = 1.0;           ///< no scan for this long means the connection is dead [s]
   double connect_timeout = 2.0;    ///< [s]
   double command_timeout = 1.0;    ///< [s]
@@ -48,7 +51,11 @@ struct UtmScan {
   std::uint32_t sensor_stamp = 0;
   float angle_min = 0, angle_max = 0, angle_increment = 0, time_increment = 0, scan_time = 0, range_min = 0,
         range_max = 0;
-  std::vector<float> ranges, intensities;
+  std::vector<float> ranges, intensities;  ///< the first echo of a multi-echo scan
+  /// Multi-echo scans only: echoes per step, and echo k of step i at
+  /// [i * kMaxEchoes + k] (REP 117 values; NaN where a step has fewer).
+  std::vector<std::uint8_t> echo_count;
+  std::vector<float> echo_ranges, echo_intensities;
 };
 
 /// Counters for diagnostics.
@@ -67,6 +74,8 @@ class UtmClient {
   /// Stops streaming (QT) and closes.
   void stop();
   bool streaming() const { return streaming_; }
+  /// Streaming multi-echo scans (ND/NE).
+  bool multiEcho() const { return streaming_ && request_.multiEcho(); }
 
   enum class Result { Scan, Idle, Error };
   /// Waits up to `max_wait` [s] for the next scan. Idle: nothing yet. Error: the

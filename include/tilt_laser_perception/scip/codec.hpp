@@ -7,6 +7,12 @@
  * and an empty line. The sum of a line is the low 6 bits of the byte sum of
  * its data, plus 0x30. Numbers are sent in 2, 3 or 4 characters of 6 bits,
  * each character = value + 0x30. Scan data is cut into lines of 64 characters.
+ *
+ * Multi-echo (the UTM-30LX-EW's ND, NE, HD, HE): the data of a step is its
+ * first echo (range, and intensity for NE/HE, 3 characters each), then '&'
+ * and the next echo's value(s) for every further echo, up to three echoes a
+ * step; the '&' are part of the data stream and may fall anywhere in its
+ * 64-character lines. ND/NE stream like MD/ME, HD/HE answer once like GD/GE.
  */
 #pragma once
 
@@ -24,6 +30,30 @@ inline char checksum(const std::string& s) { return checksum(s.data(), s.data() 
 
 /// Appends `value` encoded in `chars` characters (2, 3 or 4) of 6 bits each, most significant first.
 void encode(std::uint32_t value, int chars, std::string& out);
+/// Appends a range [mm] (or an error code below 23) in `chars` characters. Two
+/// characters (MS, GS) hold 12 bits: a range beyond 4095 mm cannot be sent and
+/// goes as error code 1 ("no object in the range", the UTM-30LX's code for a
+/// return beyond what the reply can report), never modulo 4096.
+void encodeRange(std::uint32_t mm, int chars, std::string& out);
+
+/// At most this many echoes per step in a multi-echo reply.
+constexpr int kMaxEchoes = 3;
+
+/// Which echo of a step becomes its one range.
+enum class EchoChoice { First, Last, Strongest };
+/// "first", "last", "strongest"; false for anything else.
+bool parseEchoChoice(const std::string& name, EchoChoice& out);
+/// The index of the chosen echo among `count` (>= 1); `intensities` may be
+/// null (then Strongest is First).
+template <typename T>
+int chooseEcho(EchoChoice c, int count, const T* intensities) {
+  if (count <= 1 || c == EchoChoice::First) return 0;
+  if (c == EchoChoice::Last || !intensities) return c == EchoChoice::Last ? count - 1 : 0;
+  int best = 0;
+  for (int k = 1; k < count; ++k)
+    if (intensities[k] > intensities[best]) best = k;
+  return best;
+}
 /// Decodes `chars` characters; nullopt if any character is outside 0x30..0x6F.
 std::optional<std::uint32_t> decode(const char* p, int chars);
 
@@ -71,8 +101,10 @@ struct ScanRequest {
   int skip = 0;              ///< scan interval (MD/MS/ME)
   int scans = 0;             ///< number of scans; 0 = until QT (MD/MS/ME)
   std::string tag;           ///< string characters after ';'
-  bool continuous() const { return command[0] == 'M'; }
+  bool continuous() const { return command[0] == 'M' || command[0] == 'N'; }
   bool intensity() const { return command[1] == 'E'; }
+  /// ND, NE, HD, HE: up to kMaxEchoes echoes per step.
+  bool multiEcho() const { return command[0] == 'N' || command[0] == 'H'; }
   int encoding() const { return command[1] == 'S' ? 2 : 3; }
   /// Number of values per scan.
   int steps() const { int c = cluster < 1 ? 1 : cluster; return (end_step - start_step) / c + 1; }
@@ -80,7 +112,7 @@ struct ScanRequest {
   std::string line(int remaining) const;
 };
 
-/// Parses a scan command; returns its status ("00", or the error status of the
+/// Parses a scan command (MD MS ME GD GS GE ND NE HD HE); returns its status ("00", or the error status of the
 /// specification: "01" start, "02" end, "03" cluster, "04" end out of range,
 /// "05" end before start, "06" skip, "07" scan count non-numeric).
 std::string parseScanRequest(const std::string& line, int max_step, ScanRequest& out);
@@ -88,8 +120,12 @@ std::string parseScanRequest(const std::string& line, int max_step, ScanRequest&
 /// A decoded scan reply.
 struct ScanData {
   std::uint32_t timestamp = 0;          ///< sensor time of step 0 [ms], 24 bits
-  std::vector<std::uint32_t> ranges;    ///< [mm] or error codes
+  std::vector<std::uint32_t> ranges;    ///< [mm] or error codes; the first echo of a multi-echo reply
   std::vector<std::uint32_t> intensities;
+  /// Multi-echo replies only: echoes per step (1..kMaxEchoes), and every echo's
+  /// range and intensity at [step * kMaxEchoes + echo] (0 where a step has fewer).
+  std::vector<std::uint8_t> echo_count;
+  std::vector<std::uint32_t> echo_ranges, echo_intensities;
   int remaining = -1;                   ///< scans left (MD/ME echo), -1 for GD/GE
 };
 

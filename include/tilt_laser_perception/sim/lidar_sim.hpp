@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 
 #include "tilt_laser_perception/core/scan_split.hpp"
+#include "tilt_laser_perception/scip/codec.hpp"
 #include "tilt_laser_perception/sim/scene.hpp"
 
 namespace tilt_laser_perception {
@@ -59,6 +60,14 @@ struct NoiseParams {
   /// run of beams between the near and the far surface, as real sensors do.
   double footprint = 0.0;
   double dropout_probability = 0.0;      ///< chance of a random no-return
+  /// Multi-echo (the UTM-30LX-EW): returns of one beam farther than the first
+  /// echo by more than this are a separate echo [m]. An assumed pulse
+  /// resolution (a few ns of pulse), not a data-sheet value.
+  double echo_separation = 0.3;
+  /// Rain or dust: the chance that a beam also meets a drop between 0.3 and
+  /// 4 m, a weak return before the surface's; the first (and the single-echo)
+  /// range is then the drop's, the surface a later echo.
+  double rain_probability = 0.0;
 
   /// Standard deviation of the range noise at range r [m].
   double sigma(double r) const;
@@ -73,6 +82,18 @@ struct TrueEdge {
   core::EdgeKind kind = core::EdgeKind::Boundary;
 };
 
+/// What a multi-echo sensor receives for one beam: up to scip::kMaxEchoes
+/// echoes, nearest first. The first is the single-echo range (a mixed pixel at
+/// a depth edge); a later one is a surface farther than the first echo by more
+/// than NoiseParams::echo_separation (the far side of a depth edge, or the
+/// surface behind a drop of rain).
+struct BeamEchoes {
+  std::uint8_t count = 0;
+  float range[scip::kMaxEchoes] = {};      ///< [m]
+  float intensity[scip::kMaxEchoes] = {};
+  std::uint8_t mixed[scip::kMaxEchoes] = {};  ///< 1 where that echo is a range between two faces
+};
+
 /// One simulated scan with its ground truth.
 struct SimScan {
   double stamp = 0.0;                 ///< time of beam 0 [s]
@@ -82,11 +103,16 @@ struct SimScan {
   std::vector<float> true_ranges;     ///< noise-free range of the centre ray [m]; NaN: nothing hit
   std::vector<int> face;              ///< face hit by the centre ray; -1 none
   std::vector<unsigned char> mixed;   ///< 1 where the return is a mixed pixel: a range between two faces
+  std::vector<BeamEchoes> echoes;     ///< every beam's echoes; echo 0 is ranges[i]
   std::vector<TrueEdge> edges;        ///< true edges, in beam order
 
   /// View for the splitter (points into this object).
   core::ScanView view() const;
 };
+
+/// Makes the chosen echo every beam's range, intensity and mixed flag (what a
+/// driver publishing that echo gives).
+void selectEcho(SimScan& scan, scip::EchoChoice choice);
 
 /// Pose of the sensor frame in the scene frame at time t [s].
 using PoseFunction = std::function<Eigen::Isometry3d(double)>;
@@ -109,13 +135,20 @@ class LidarSimulator {
  private:
   /// The power-weighted mean range over a footprint of half-width w about angle a; NaN: no return.
   /// several_faces: the returns came from more than one face.
+  /// A sub-ray's return within a footprint.
+  struct SubReturn {
+    double t, w;
+    int face;
+  };
+  static constexpr int kFootprintRays = 11;
   template <typename Dir>
   double footprintRange(const Eigen::Vector3d& o, const Dir& dirAt, double a, double w, double cos_grazing,
-                        bool& several_faces) const;
+                        bool& several_faces, SubReturn* returns, int& n_returns) const;
   const Scene& scene_;
   LidarModel model_;
   NoiseParams noise_;
   std::mt19937_64 rng_;
+  std::mt19937_64 echo_rng_;  ///< later echoes and rain, so that the single-echo ranges do not change with them
 };
 
 /// True edges from the per-beam faces and returns: creases between faces that

@@ -33,6 +33,9 @@ struct SceneEvalOptions {
   double overlap = 0.8;                 ///< Hoover's tolerance
   double heightmap_radius = 3.0;        ///< cells farther than this are not judged [m]
   NoiseParams noise;
+  /// The echo the pipeline takes (a multi-echo sensor's driver with ~echo):
+  /// first is the single-echo range.
+  scip::EchoChoice echo = scip::EchoChoice::First;
   RigErrors rig;                        ///< the rig's errors (none by default)
   /// Applied to the believed geometry as the launch files apply calibrate's
   /// output: joint readings + joint_offset, scan stamps - time_offset, the mount on the laser.

@@ -5,8 +5,12 @@
  *        24-bit millisecond clock, and faults on demand. ROS-free.
  *
  * Commands: VV, PP, II, BM, QT, RS, RT, RB (twice), TM0/TM1/TM2, MD/MS/ME
- * (cluster, skip, scan count, string characters), GD/GS/GE, SCIP2.0.
- * Returns without a measurement are sent as the UTM-30LX's error code 1.
+ * and the -EW's multi-echo ND/NE (cluster, skip, scan count, string
+ * characters), GD/GS/GE and HD/HE, SCIP2.0. Returns without a measurement are
+ * sent as the UTM-30LX's error code 1, and so are ranges beyond the 4095 mm
+ * that MS/GS's two characters hold. After RB (or reboot()) nothing listens
+ * for `reboot_time`: a connection is refused, as a sensor that is booting
+ * cannot be reached.
  */
 #pragma once
 
@@ -37,8 +41,13 @@ struct UtmOptions {
   /// regulated to 2400 rpm, not locked to the time stamp counter, so it is not
   /// a whole number of milliseconds and the stamps' floors walk across the millisecond.
   double motor_ppm = 400.0;
-  double reboot_time = 0.5;          ///< the sensor is unreachable this long after RB [s]
+  /// The sensor is unreachable this long after RB [s]: the UTM-30LX's start-up
+  /// time, "within 10 sec" (its specification); tests of other things set less.
+  double reboot_time = 10.0;
   std::string serial = "H1102345";
+  /// The -EW's multi-echo (ND, NE, HD, HE); false: a UTM-30LX, which answers
+  /// them "0E" (undefined command).
+  bool multi_echo = true;
 };
 
 /// Counts of what the emulator did.
@@ -83,6 +92,8 @@ class UtmEmulator {
   void closeClient();
   void powerUp(double t, double clock_ms);
   bool sendAll(const std::string& s);
+  bool openListener();  ///< on port_ (0: any free port, then port_ is set)
+  void closeListener();
 
   ScanSource source_;
   UtmOptions options_;
@@ -98,7 +109,7 @@ class UtmEmulator {
   double rb_first_ = -10.0;
   std::string request_line_;
   int req_start_ = 0, req_end_ = 1080, req_cluster_ = 1, req_skip_ = 0, req_remaining_ = 0, req_enc_ = 3;
-  bool req_intensity_ = false, req_infinite_ = true;
+  bool req_intensity_ = false, req_infinite_ = true, req_multi_ = false;
   std::string req_cmd_, req_tag_;
   long next_scan_ = 0;
   int skip_count_ = 0;
