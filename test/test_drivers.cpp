@@ -220,6 +220,119 @@ TEST_P(ServoDriverTest, SwitchesTheTorqueOnAgainWhenItWentOffWithNoError) {
   drv.stop();
 }
 
+TEST_P(ServoDriverTest, ReadsTheServosOwnLimitsAndSweepsOnlyWithinThem) {
+  // The tilt profile asks for 0.2..0.7 rad. With the e-manual's defaults the
+  // servo takes the whole turn; with its limits set to 0.3..0.5 rad (1.0:
+  // CW/CCW Angle Limit; 2.0: Min/Max Position Limit) the driver reads them at
+  // start, warns, and sweeps within them.
+  for (const bool narrow : {false, true}) {
+    EmulatedServo es(proto(), "");
+    const auto& tab = dynamixel::mx64Table(proto());
+    const bool v1 = proto() == dynamixel::Protocol::V1;
+    if (narrow) {
+      dynamixel::PortHandler port;
+      std::string err;
+      ASSERT_TRUE(port.open(es.emu.devicePath(), 57600, true, err)) << err;
+      dynamixel::Bus bus(port, proto());
+      std::uint8_t e = 0;
+      const auto lo = static_cast<std::uint32_t>(dynamixel::radToPosition(0.3));
+      const auto hi = static_cast<std::uint32_t>(dynamixel::radToPosition(0.5));
+      ASSERT_EQ(bus.writeReg(1, v1 ? tab.cw_angle_limit : tab.min_position_limit, lo, &e), dynamixel::TxResult::Ok);
+      ASSERT_EQ(e, 0);
+      ASSERT_EQ(bus.writeReg(1, v1 ? tab.ccw_angle_limit : tab.max_position_limit, hi, &e), dynamixel::TxResult::Ok);
+      ASSERT_EQ(e, 0);
+    }
+    Recorder rec;
+    driver::ServoDriver drv(options(proto(), es.emu.devicePath()), rec.joint(), rec.sweep(), rec.log());
+    drv.start();
+    std::this_thread::sleep_for(2500ms);
+    const driver::ServoStatus st = drv.status();
+    drv.stop();
+    std::lock_guard<std::mutex> l(rec.m);
+    ASSERT_GT(rec.joints.size(), 100u);
+    double lo = 10, hi = -10;
+    for (const auto& j : rec.joints) {
+      lo = std::min(lo, j.position);
+      hi = std::max(hi, j.position);
+    }
+    int complete = 0;
+    for (const auto& sw : rec.sweeps) complete += sw.second;
+    bool warned = false;
+    for (const auto& m : rec.logs) warned = warned || m.find("beyond the servo's own limits") != std::string::npos;
+    std::printf("protocol %d, %s limits: %.3f..%.3f rad read, tilt %.3f..%.3f rad, %d sweeps\n", GetParam(),
+                narrow ? "narrow" : "default", st.limit_min, st.limit_max, lo, hi, complete);
+    EXPECT_EQ(st.refused_writes, 0u) << st.last_refusal;
+    EXPECT_GE(complete, 2);
+    if (!narrow) {
+      EXPECT_NEAR(st.limit_min, dynamixel::positionToRad(0), 1e-9);
+      EXPECT_NEAR(st.limit_max, dynamixel::positionToRad(4095), 1e-9);
+      EXPECT_FALSE(warned);
+      EXPECT_NEAR(lo, 0.2, 0.03);
+      EXPECT_NEAR(hi, 0.7, 0.03);
+    } else {
+      EXPECT_NEAR(st.limit_min, 0.3, dynamixel::kRadPerStep);
+      EXPECT_NEAR(st.limit_max, 0.5, dynamixel::kRadPerStep);
+      EXPECT_TRUE(warned);
+      EXPECT_GE(lo, 0.3 - 0.005);
+      EXPECT_LE(hi, 0.5 + 0.005);
+      EXPECT_LT(lo, 0.32);  // and it sweeps the whole of what is left
+      EXPECT_GT(hi, 0.48);
+    }
+  }
+}
+
+TEST(ServoDriver, StartsOnAServoWhoseTorqueIsOnAndReportsWhatTheModelLacks) {
+  // 2.0: the return delay is EEPROM, refused with the torque on (a driver
+  // restarted under a running head): torque off, write, torque on.
+  {
+    sim::ServoModel servo{0.3, sim::hostNow()};
+    sim::Mx64Options mo;
+    sim::Mx64Emulator emu(servo, mo);
+    emu.start();
+    {
+      dynamixel::PortHandler port;
+      std::string err;
+      ASSERT_TRUE(port.open(emu.devicePath(), 57600, true, err)) << err;
+      dynamixel::Bus bus(port, dynamixel::Protocol::V2);
+      std::uint8_t e = 0;
+      ASSERT_EQ(bus.writeReg(1, dynamixel::mx64Table(dynamixel::Protocol::V2).torque_enable, 1, &e),
+                dynamixel::TxResult::Ok);
+    }
+    Recorder rec;
+    driver::ServoDriver drv(options(dynamixel::Protocol::V2, emu.devicePath()), rec.joint(), rec.sweep(), rec.log());
+    drv.start();
+    std::this_thread::sleep_for(800ms);
+    const driver::ServoStatus st = drv.status();
+    drv.stop();
+    EXPECT_TRUE(st.connected);
+    EXPECT_EQ(st.refused_writes, 0u) << st.last_refusal;
+    EXPECT_EQ(emu.reg(dynamixel::mx64Table(dynamixel::Protocol::V2).return_delay), 0u);
+    EXPECT_GT(rec.count(), 50u);
+    EXPECT_GT(emu.stats().error_replies.load(), 0u);  // the refusal did happen
+  }
+  // A servo without Profile Acceleration (108): an access error, reported
+  // with the model number and the address; the driver does not start it.
+  {
+    sim::ServoModel servo{0.3, sim::hostNow()};
+    sim::Mx64Options mo;
+    mo.undefined_addresses = {108, 109, 110, 111};
+    sim::Mx64Emulator emu(servo, mo);
+    emu.start();
+    Recorder rec;
+    driver::ServoDriver drv(options(dynamixel::Protocol::V2, emu.devicePath()), rec.joint(), rec.sweep(), rec.log());
+    drv.start();
+    std::this_thread::sleep_for(500ms);
+    const driver::ServoStatus st = drv.status();
+    drv.stop();
+    EXPECT_FALSE(st.connected);
+    EXPECT_GE(st.refused_writes, 1u);
+    EXPECT_NE(st.last_refusal.find("servo model 311"), std::string::npos) << st.last_refusal;
+    EXPECT_NE(st.last_refusal.find("address 108"), std::string::npos) << st.last_refusal;
+    EXPECT_NE(st.last_refusal.find("access error"), std::string::npos) << st.last_refusal;
+    EXPECT_EQ(rec.count(), 0u);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Protocols, ServoDriverTest, ::testing::Values(1, 2));
 
 TEST(LaserDriver, ReconnectsAfterDropsAndReboots) {
@@ -274,7 +387,7 @@ TEST(DynamixelBus, SyncAndBulkInstructionsOnTheEmulatedServo) {
     emu.start();
     dynamixel::PortHandler port;
     std::string err;
-    ASSERT_TRUE(port.open(emu.devicePath(), 1000000, true, err)) << err;
+    ASSERT_TRUE(port.open(emu.devicePath(), 57600, true, err)) << err;  // the servo's Baud Rate (initial)
     dynamixel::Bus bus(port, proto);
     std::uint16_t model = 0;
     std::uint8_t e = 0;

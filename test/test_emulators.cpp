@@ -382,7 +382,17 @@ class Port {
   bool ok() const { return fd_ >= 0; }
   /// Sends an instruction; the status packet if one arrives within `timeout` [s].
   std::optional<dynamixel::Packet> transact(std::uint8_t inst, const std::vector<std::uint8_t>& params, double timeout = 0.2) {
-    const auto pkt = dynamixel::instructionPacket(protocol_, 1, inst, params);
+    return sendRaw(dynamixel::instructionPacket(protocol_, 1, inst, params), timeout);
+  }
+  /// Sets the line's baud rate (as a host's port would be set).
+  void setSpeed(speed_t speed) {
+    termios t{};
+    ::tcgetattr(fd_, &t);
+    ::cfsetspeed(&t, speed);
+    ::tcsetattr(fd_, TCSANOW, &t);
+  }
+  /// Sends these bytes; the status packet if one arrives within `timeout` [s].
+  std::optional<dynamixel::Packet> sendRaw(const std::vector<std::uint8_t>& pkt, double timeout = 0.2) {
     if (::write(fd_, pkt.data(), pkt.size()) != static_cast<ssize_t>(pkt.size())) return std::nullopt;
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
     dynamixel::Packet p;
@@ -518,6 +528,116 @@ TEST_P(Mx64EmulatorTest, FaultsCanBeTriggeredAndSeen) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Protocols, Mx64EmulatorTest, ::testing::Values(1, 2));
+
+TEST_P(Mx64EmulatorTest, TheControlTableAndItsErrorsAsTheEmanualGivesThem) {
+  const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
+  const bool v1 = proto == dynamixel::Protocol::V1;
+  const auto& tab = dynamixel::mx64Table(proto);
+  ServoModel servo(0.0, hostNow());
+  Mx64Options opt;
+  opt.protocol = proto;
+  Mx64Emulator emu(servo, opt);
+  emu.start();
+  Port port(emu.devicePath(), proto);
+  ASSERT_TRUE(port.ok());
+  port.setSpeed(B57600);
+  const auto reg = [](std::uint16_t a, std::uint8_t n) { return dynamixel::Reg{a, n}; };
+  const auto errorOf = [&](const std::optional<dynamixel::Packet>& p) { return p ? static_cast<int>(p->error) : -1; };
+  // The e-manual's initial values (MX-64AR/AT for 1.0, MX-64(2.0) for 2.0).
+  const std::vector<std::pair<dynamixel::Reg, std::uint32_t>> initial =
+      v1 ? std::vector<std::pair<dynamixel::Reg, std::uint32_t>>{
+               {reg(4, 1), 34}, {reg(5, 1), 250}, {reg(6, 2), 0}, {reg(8, 2), 4095}, {reg(11, 1), 80},
+               {reg(12, 1), 60}, {reg(13, 1), 240}, {reg(14, 2), 1023}, {reg(16, 1), 2}, {reg(17, 1), 36},
+               {reg(18, 1), 36}, {reg(22, 1), 1}, {reg(28, 1), 32}, {reg(34, 2), 1023}, {reg(68, 2), 2048}}
+         : std::vector<std::pair<dynamixel::Reg, std::uint32_t>>{
+               {reg(8, 1), 1}, {reg(9, 1), 250}, {reg(11, 1), 3}, {reg(12, 1), 255}, {reg(13, 1), 2},
+               {reg(24, 4), 10}, {reg(31, 1), 80}, {reg(32, 2), 160}, {reg(34, 2), 95}, {reg(36, 2), 885},
+               {reg(38, 2), 1941}, {reg(40, 4), 32767}, {reg(44, 4), 435}, {reg(48, 4), 4095}, {reg(52, 4), 0},
+               {reg(63, 1), 52}, {reg(68, 1), 2}, {reg(76, 2), 1920}, {reg(78, 2), 100}, {reg(84, 2), 850},
+               {reg(168, 2), 224}, {reg(222, 2), 251}, {reg(578, 2), 634}, {reg(632, 2), 661}};
+  for (const auto& [r, v] : initial) EXPECT_EQ(port.read(r).value_or(99999), v) << "address " << r.addr;
+
+  // A read-only register: 2.0 access error, 1.0 range bit; nothing written.
+  EXPECT_EQ(errorOf(port.write(tab.present_position, 100)), v1 ? 0x08 : 0x07);
+  EXPECT_EQ(errorOf(port.write(reg(v1 ? 10 : 14, 1), 1)), v1 ? 0x08 : 0x07) << "a reserved address";
+  // A goal beyond the register's range: 2.0 data range, 1.0 range bit.
+  ASSERT_EQ(errorOf(port.write(tab.torque_enable, 1)), 0);
+  EXPECT_EQ(errorOf(port.write(tab.goal_position, 5000)), v1 ? 0x08 : 0x04);
+  EXPECT_EQ(port.read(tab.goal_position).value_or(0), 2048u);
+  if (!v1) {
+    // EEPROM with the torque on: access error; with it off the write is taken.
+    EXPECT_EQ(errorOf(port.write(tab.max_position_limit, 3000)), 0x07);
+    EXPECT_EQ(port.read(tab.max_position_limit).value_or(0), 4095u);
+    ASSERT_EQ(errorOf(port.write(tab.torque_enable, 0)), 0);
+    EXPECT_EQ(errorOf(port.write(tab.max_position_limit, 3000)), 0);
+    ASSERT_EQ(errorOf(port.write(tab.torque_enable, 1)), 0);
+    // Part of a register: data length error.
+    EXPECT_EQ(errorOf(port.write(reg(116, 2), 2100)), 0x05);
+    // Within the range but beyond Max Position Limit: data limit error.
+    EXPECT_EQ(errorOf(port.write(tab.goal_position, 3500)), 0x06);
+    // The goal velocity beyond the Velocity Limit: data limit too.
+    EXPECT_EQ(errorOf(port.write(reg(104, 4), 500)), 0x06);
+  } else {
+    ASSERT_EQ(errorOf(port.write(tab.ccw_angle_limit, 3000)), 0);
+    EXPECT_EQ(errorOf(port.write(tab.goal_position, 3500)), 0x02);  // the angle limit bit
+  }
+  EXPECT_EQ(port.read(tab.goal_position).value_or(0), 2048u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_NEAR(servo.state(hostNow()).position, 0.0, 0.01) << "a refused goal does not move the horn";
+  EXPECT_EQ(errorOf(port.write(tab.goal_position, 2900)), 0);  // within the limits: taken
+
+  // Reg Write sets Registered; Action applies it and clears it; Action with nothing registered: instruction error.
+  std::vector<std::uint8_t> rw = port.addr(tab.led.addr);
+  rw.push_back(1);
+  EXPECT_EQ(errorOf(port.transact(dynamixel::inst::kRegWrite, rw)), 0);
+  EXPECT_EQ(port.read(tab.registered).value_or(9), 1u);
+  EXPECT_EQ(port.read(tab.led).value_or(9), 0u);
+  EXPECT_EQ(errorOf(port.transact(dynamixel::inst::kAction, {})), 0);
+  EXPECT_EQ(port.read(tab.led).value_or(9), 1u);
+  EXPECT_EQ(port.read(tab.registered).value_or(9), 0u);
+  EXPECT_EQ(errorOf(port.transact(dynamixel::inst::kAction, {})), v1 ? 0x40 : 0x02);
+
+  // A packet with a wrong checksum / CRC: 1.0 checksum bit, 2.0 CRC error.
+  auto pkt = dynamixel::instructionPacket(proto, 1, dynamixel::inst::kPing, {});
+  pkt.back() ^= 0x5A;
+  EXPECT_EQ(errorOf(port.sendRaw(pkt)), v1 ? 0x10 : 0x03);
+  // Past the end of the table.
+  std::vector<std::uint8_t> past = port.addr(v1 ? 70 : 650);
+  dynamixel::putLE(past, 20, v1 ? 1 : 2);
+  EXPECT_EQ(errorOf(port.transact(dynamixel::inst::kRead, past)), v1 ? 0x08 : 0x07);
+  // A line at another baud rate than the servo's: no reply.
+  port.setSpeed(B115200);
+  EXPECT_FALSE(port.transact(dynamixel::inst::kPing, {}, 0.1).has_value());
+  port.setSpeed(B57600);
+  EXPECT_TRUE(port.transact(dynamixel::inst::kPing, {}).has_value());
+  EXPECT_GT(emu.stats().wrong_baud_bytes.load(), 0u);
+  if (v1) return;
+
+  // 2.0: the indirect address area. Indirect Address 1..4 = Present Position
+  // (132..135): Indirect Data 1..4 (224..227) read it.
+  for (int k = 0; k < 4; ++k) ASSERT_EQ(errorOf(port.write(reg(168 + 2 * k, 2), 132 + k)), 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto direct = port.read(tab.present_position), indirect = port.read(reg(224, 4));
+  ASSERT_TRUE(direct && indirect);
+  EXPECT_NEAR(static_cast<double>(*indirect), static_cast<double>(*direct), 20.0);  // (it moves meanwhile)
+  EXPECT_GT(*direct, 2100u);
+  // Bulk Write: the LED off and a goal, no status packet.
+  std::vector<std::uint8_t> bw = {1};
+  dynamixel::putLE(bw, tab.led.addr, 2);
+  dynamixel::putLE(bw, 1, 2);
+  bw.push_back(0);
+  EXPECT_FALSE(port.transact(dynamixel::inst::kBulkWrite, bw, 0.1).has_value());
+  EXPECT_EQ(port.read(tab.led).value_or(9), 0u);
+  // Reboot: silent for the boot time, then the RAM area at its initial values.
+  ASSERT_TRUE(port.transact(dynamixel::inst::kReboot, {}).has_value());
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_FALSE(port.transact(dynamixel::inst::kPing, {}, 0.2).has_value());
+  std::this_thread::sleep_until(t0 + std::chrono::milliseconds(650));
+  EXPECT_TRUE(port.transact(dynamixel::inst::kPing, {}).has_value());
+  EXPECT_EQ(port.read(tab.torque_enable).value_or(9), 0u);
+  EXPECT_EQ(port.read(tab.max_position_limit).value_or(0), 3000u) << "EEPROM kept";
+  EXPECT_EQ(port.read(reg(168, 2)).value_or(0), 224u) << "RAM reset";
+}
 
 TEST_P(Mx64EmulatorTest, SyncWriteAndBulkRead) {
   const auto proto = GetParam() == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;

@@ -95,23 +95,25 @@ bool ServoDriver::openAndConfigure() {
   if (model != tab.model && log_)
     log_(Level::Warn, "servo model " + std::to_string(model) + " is not an MX-64 (" + std::to_string(tab.model) +
                           "): the control table may differ");
-  // Restore the configuration: prompt replies, limits, torque.
-  bool ok = bus_.writeReg(opt_.id, tab.return_delay, 0, &e, true, opt_.timeout) == TxResult::Ok;
-  ok = ok && bus_.writeReg(opt_.id, tab.status_return_level, 2, &e, true, opt_.timeout) == TxResult::Ok;
-  ok = ok && bus_.writeReg(opt_.id, tab.torque_enable, 0, &e, true, opt_.timeout) == TxResult::Ok;
+  model_ = model;
+  // Restore the configuration: prompt replies, limits, torque. The return
+  // delay is EEPROM in both protocols: a 2.0 servo refuses it while its torque
+  // is on (a driver restarted under a running head); writeChecked meets that.
+  bool ok = writeChecked(tab.return_delay, 0);
+  ok = ok && writeChecked(tab.status_return_level, 2);
+  ok = ok && writeChecked(tab.torque_enable, 0);
+  ok = ok && readLimits();
   if (opt_.protocol == Protocol::V1) {
-    ok = ok && bus_.writeReg(opt_.id, tab.goal_acceleration,
-                             dynamixel::radPerSec2ToAcceleration(opt_.protocol, opt_.profile.acceleration), &e, true,
-                             opt_.timeout) == TxResult::Ok;
+    ok = ok && writeChecked(tab.goal_acceleration,
+                            dynamixel::radPerSec2ToAcceleration(opt_.protocol, opt_.profile.acceleration));
   } else {
-    ok = ok && bus_.writeReg(opt_.id, tab.profile_acceleration,
-                             dynamixel::radPerSec2ToAcceleration(opt_.protocol, opt_.profile.acceleration), &e, true,
-                             opt_.timeout) == TxResult::Ok;
+    ok = ok && writeChecked(tab.profile_acceleration,
+                            dynamixel::radPerSec2ToAcceleration(opt_.protocol, opt_.profile.acceleration));
   }
-  ok = ok && bus_.writeReg(opt_.id, tab.torque_enable, 1, &e, true, opt_.timeout) == TxResult::Ok;
+  ok = ok && writeChecked(tab.torque_enable, 1);
   if (!ok) {
     std::lock_guard<std::mutex> l(status_mutex_);
-    status_.last_error = "configuring the servo failed";
+    status_.last_error = "configuring the servo failed" + (status_.last_refusal.empty() ? "" : ": " + status_.last_refusal);
     port_.close();
     return false;
   }
@@ -125,6 +127,108 @@ bool ServoDriver::openAndConfigure() {
   if (log_)
     log_(Level::Info, "servo " + std::to_string(opt_.id) + " (model " + std::to_string(model) + ", protocol " +
                           std::to_string(static_cast<int>(opt_.protocol)) + ".0) ready on " + opt_.device);
+  return true;
+}
+
+bool ServoDriver::writeChecked(const dynamixel::Reg& reg, std::uint32_t value, bool* torque_was_on) {
+  const bool v1 = opt_.protocol == Protocol::V1;
+  const auto& tab = dynamixel::mx64Table(opt_.protocol);
+  std::uint8_t e = 0;
+  if (bus_.writeReg(opt_.id, reg, value, &e, true, opt_.timeout) != TxResult::Ok) return false;
+  const std::uint8_t refusal = v1 ? (e & (dynamixel::err1::kAngleLimit | dynamixel::err1::kRange |
+                                          dynamixel::err1::kChecksum | dynamixel::err1::kInstruction))
+                                  : (e & 0x7F);
+  if (!refusal) return true;
+  const dynamixel::RegisterInfo* info = dynamixel::mx64RegisterAt(opt_.protocol, reg.addr);
+  if (!v1 && refusal == dynamixel::err2::kAccess && info && info->eeprom && info->writable) {
+    // "Data in the EEPROM Area can only be written when Torque Enable is 0."
+    if (bus_.writeReg(opt_.id, tab.torque_enable, 0, &e, true, opt_.timeout) == TxResult::Ok &&
+        bus_.writeReg(opt_.id, reg, value, &e, true, opt_.timeout) == TxResult::Ok && !(e & 0x7F)) {
+      if (torque_was_on) *torque_was_on = true;
+      if (log_)
+        log_(Level::Info, std::string("servo: ") + info->name + " (EEPROM) written with the torque off, as the servo asks");
+      return true;  // (the configuration switches the torque on again at its end)
+    }
+  }
+  const std::string what = v1 ? dynamixel::hardwareErrorNames(opt_.protocol, refusal) : dynamixel::statusErrorName2(refusal);
+  const std::string msg = "servo model " + std::to_string(model_) + " refused writing " + std::to_string(value) +
+                          " to address " + std::to_string(reg.addr) + " (" + (info ? info->name : "not in the MX-64's table") +
+                          "): " + what +
+                          (!v1 && refusal == dynamixel::err2::kAccess && !info ? " (this model has no such register?)" : "");
+  {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    ++status_.refused_writes;
+    status_.last_refusal = msg;
+  }
+  if (log_) log_(Level::Warn, msg);
+  return false;
+}
+
+bool ServoDriver::readLimits() {
+  const bool v1 = opt_.protocol == Protocol::V1;
+  const auto& tab = dynamixel::mx64Table(opt_.protocol);
+  std::uint8_t e = 0;
+  std::uint32_t lo = 0, hi = 4095;
+  if (v1) {
+    // Joint mode: the goal within CW..CCW Angle Limit. Both 0 is wheel mode
+    // (no position control), both 4095 multi-turn: the tilt needs joint mode.
+    if (bus_.readReg(opt_.id, tab.cw_angle_limit, lo, &e, opt_.timeout) != TxResult::Ok ||
+        bus_.readReg(opt_.id, tab.ccw_angle_limit, hi, &e, opt_.timeout) != TxResult::Ok)
+      return false;
+    if ((lo == 0 && hi == 0) || (lo == 4095 && hi == 4095)) {
+      if (log_) log_(Level::Warn, "servo in wheel or multi-turn mode (CW/CCW angle limits " + std::to_string(lo) + "/" +
+                                      std::to_string(hi) + "): setting joint mode over the whole turn");
+      lo = 0;
+      hi = 4095;
+      if (!writeChecked(tab.cw_angle_limit, lo) || !writeChecked(tab.ccw_angle_limit, hi)) return false;
+    }
+    std::uint32_t torque_limit = 0;
+    if (bus_.readReg(opt_.id, tab.torque_limit, torque_limit, &e, opt_.timeout) == TxResult::Ok && torque_limit == 0) {
+      if (log_) log_(Level::Warn, "servo torque limit 0: the horn could not move; setting it to the maximum");
+      std::uint32_t max_torque = 1023;
+      bus_.readReg(opt_.id, tab.max_torque, max_torque, &e, opt_.timeout);
+      if (!writeChecked(tab.torque_limit, max_torque ? max_torque : 1023)) return false;
+    }
+  } else {
+    std::uint32_t mode = 3;
+    if (bus_.readReg(opt_.id, tab.operating_mode, mode, &e, opt_.timeout) != TxResult::Ok) return false;
+    if (mode != 3) {
+      if (log_) log_(Level::Warn, "servo operating mode " + std::to_string(mode) + ": setting position control (3)");
+      if (!writeChecked(tab.operating_mode, 3)) return false;
+    }
+    if (bus_.readReg(opt_.id, tab.min_position_limit, lo, &e, opt_.timeout) != TxResult::Ok ||
+        bus_.readReg(opt_.id, tab.max_position_limit, hi, &e, opt_.timeout) != TxResult::Ok)
+      return false;
+  }
+  if (hi < lo) std::swap(lo, hi);
+  goal_min_ = static_cast<std::int32_t>(lo);
+  goal_max_ = static_cast<std::int32_t>(hi);
+  const double a = toJoint(dynamixel::positionToRad(goal_min_)), b = toJoint(dynamixel::positionToRad(goal_max_));
+  const double jmin = std::min(a, b), jmax = std::max(a, b);
+  {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    status_.limit_min = jmin;
+    status_.limit_max = jmax;
+  }
+  // The sweep between the ends the servo takes: a goal it refuses would stop
+  // the head at its limit with the sweep waiting for an end it cannot reach.
+  core::TiltProfileParams pp = opt_.profile;
+  const double margin = dynamixel::kRadPerStep;
+  pp.min_angle = std::max(pp.min_angle, jmin + margin);
+  pp.max_angle = std::min(pp.max_angle, jmax - margin);
+  if (pp.max_angle <= pp.min_angle) {
+    std::lock_guard<std::mutex> l(status_mutex_);
+    status_.last_refusal = "the servo's limits leave no tilt range";
+    return false;
+  }
+  if (pp.min_angle != profile_.params().min_angle || pp.max_angle != profile_.params().max_angle) {
+    if (log_ && (pp.min_angle != opt_.profile.min_angle || pp.max_angle != opt_.profile.max_angle))
+      log_(Level::Warn, "the tilt range " + std::to_string(opt_.profile.min_angle * 180 / M_PI).substr(0, 5) + ".." +
+                            std::to_string(opt_.profile.max_angle * 180 / M_PI).substr(0, 5) +
+                            " deg goes beyond the servo's own limits " + std::to_string(jmin * 180 / M_PI).substr(0, 5) +
+                            ".." + std::to_string(jmax * 180 / M_PI).substr(0, 5) + " deg: sweeping within them");
+    profile_.setParams(pp);
+  }
   return true;
 }
 
@@ -168,7 +272,18 @@ void ServoDriver::sendCommand(const core::TiltCommand& cmd) {
                       opt_.timeout) == TxResult::Ok)
       last_velocity_cmd_ = cmd.velocity;
   }
-  const std::int32_t raw = dynamixel::radToPosition(toServo(cmd.goal));
+  const std::int32_t want = dynamixel::radToPosition(toServo(cmd.goal));
+  const std::int32_t raw = std::clamp(want, goal_min_, goal_max_);
+  if (raw != want) {
+    bool first = false;
+    {
+      std::lock_guard<std::mutex> l(status_mutex_);
+      first = status_.clamped_goals++ == 0;
+    }
+    if (log_)
+      log_(Level::Warn, std::string("tilt goal beyond the servo's limits: clamped") +
+                            (first ? " (the servo's own limits; see the diagnostics)" : ""));
+  }
   bus_.writeReg(opt_.id, tab.goal_position, static_cast<std::uint32_t>(raw), &e, true, opt_.timeout);
 }
 

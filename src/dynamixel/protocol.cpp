@@ -110,6 +110,7 @@ bool PacketParser::next(Packet& out) {
       const std::size_t total = len + 4;
       if (checksum1(buffer_.data() + 2, total - 3) != buffer_[total - 1]) {
         ++bad_checksum_;
+        last_bad_id_ = buffer_[2];
         buffer_.erase(buffer_.begin(), buffer_.begin() + 2);  // resynchronise after this header
         continue;
       }
@@ -138,6 +139,7 @@ bool PacketParser::next(Packet& out) {
     const std::uint16_t crc = crc16(buffer_.data(), total - 2);
     if (crc != getLE(buffer_.data() + total - 2, 2)) {
       ++bad_checksum_;
+      last_bad_id_ = buffer_[4];
       buffer_.erase(buffer_.begin(), buffer_.begin() + 4);
       continue;
     }

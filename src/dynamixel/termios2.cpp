@@ -16,5 +16,11 @@ bool setCustomBaud(int fd, int baud) {
   return ioctl(fd, TCSETS2, &t) == 0;
 }
 
+int lineBaud(int fd) {
+  struct termios2 t;
+  if (ioctl(fd, TCGETS2, &t) != 0) return -1;
+  return static_cast<int>(t.c_ospeed);
+}
+
 }  // namespace dynamixel
 }  // namespace tilt_laser_perception

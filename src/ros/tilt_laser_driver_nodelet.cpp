@@ -306,6 +306,11 @@ void TiltLaserDriverNodelet::diagnoseServo(diagnostic_updater::DiagnosticStatusW
   else
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
   stat.add("model", s.model);
+  stat.add("position limits [deg] (the servo's own)", std::to_string(s.limit_min * 180 / M_PI).substr(0, 6) + " .. " +
+                                                         std::to_string(s.limit_max * 180 / M_PI).substr(0, 6));
+  stat.add("goals clamped to the limits", s.clamped_goals);
+  stat.add("writes refused", s.refused_writes);
+  if (!s.last_refusal.empty()) stat.add("last refusal", s.last_refusal);
   stat.add("temperature [C]", s.temperature);
   stat.add("voltage [V]", s.voltage);
   stat.add("effort", s.effort);

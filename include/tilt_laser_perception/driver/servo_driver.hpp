@@ -63,6 +63,12 @@ struct ServoStatus {
   unsigned long reopens = 0, hardware_error_events = 0, samples = 0, sweeps = 0, aborted_sweeps = 0;
   unsigned long torque_restores = 0;  ///< torque found off with no hardware error and switched on again
   unsigned long late_reads = 0;       ///< reads not published: their round trip made the stamp uncertain
+  /// The servo's own position limits as it reported them at start, as joint angles [rad]
+  /// (1.0: CW/CCW Angle Limit; 2.0: Min/Max Position Limit).
+  double limit_min = 0.0, limit_max = 0.0;
+  unsigned long clamped_goals = 0;    ///< tilt goals beyond those limits, sent clamped to them
+  unsigned long refused_writes = 0;   ///< writes the servo answered with an error (see last_refusal)
+  std::string last_refusal;
   std::string last_error;
 };
 
@@ -87,6 +93,13 @@ class ServoDriver {
   bool openAndConfigure();
   dynamixel::TxResult readState(JointSample& s, std::uint8_t& error_byte);
   void sendCommand(const core::TiltCommand& cmd);
+  /// Writes a register, and meets the servo's refusals: a 2.0 EEPROM write
+  /// refused with the torque on (access error) is made again with the torque
+  /// off; any other error is logged with the register, the model and the
+  /// e-manual's meaning. True when the value was written.
+  bool writeChecked(const dynamixel::Reg& reg, std::uint32_t value, bool* torque_was_on = nullptr);
+  /// Reads the servo's position limits (and puts it in joint / position control mode).
+  bool readLimits();
   void handleHardwareError(std::uint8_t bits, double now);
   void dropSweep(const std::string& why);
   void sleepUntil(double t);
@@ -105,6 +118,8 @@ class ServoDriver {
   mutable std::mutex status_mutex_;
   ServoStatus status_;
   double last_velocity_cmd_ = -1.0, hw_error_since_ = -1.0;
+  std::int32_t goal_min_ = 0, goal_max_ = 4095;  ///< raw goal positions the servo takes (its limits)
+  std::uint16_t model_ = 0;
 };
 
 }  // namespace driver

@@ -11,8 +11,10 @@
  */
 #pragma once
 
+#include <climits>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "tilt_laser_perception/dynamixel/protocol.hpp"
 
@@ -31,13 +33,48 @@ struct Mx64Table {
   Reg model_number, firmware, id, baud_rate, return_delay, status_return_level, torque_enable, led,
       goal_position, moving_speed /*1.0*/, goal_acceleration /*1.0*/, profile_acceleration /*2.0*/,
       profile_velocity /*2.0*/, present_position, present_speed, present_load /*1.0*/, present_current,
-      present_voltage, present_temperature, moving, hardware_error /*2.0*/, max_torque /*1.0*/;
+      present_voltage, present_temperature, moving, hardware_error /*2.0*/, max_torque /*1.0*/,
+      torque_limit /*1.0*/, cw_angle_limit /*1.0*/, ccw_angle_limit /*1.0*/, lock /*1.0*/,
+      min_position_limit /*2.0*/, max_position_limit /*2.0*/, velocity_limit /*2.0*/, operating_mode /*2.0*/,
+      registered;
   std::uint16_t model = 0;   ///< model number the servo reports
-  std::uint16_t size = 0;    ///< bytes of control table the emulator keeps
+  std::uint16_t size = 0;    ///< bytes of control table (1.0: 74; 2.0: 662, to the last indirect data)
 };
 
 /// The table of a protocol.
 const Mx64Table& mx64Table(Protocol p);
+
+/// One entry of the e-manual's control table ("MX-64AR/AT" for Protocol 1.0,
+/// "MX-64(2.0)" for 2.0): address, size, access, area, the range a write must
+/// lie in, and the initial value (kNoInitial: "-", the servo's own state).
+struct RegisterInfo {
+  std::uint16_t addr;
+  std::uint8_t size;
+  bool writable;
+  bool eeprom;  ///< 2.0: written only while Torque Enable is 0
+  std::int64_t min, max, initial;
+  const char* name;
+};
+constexpr std::int64_t kNoInitial = INT64_MIN;
+/// Every register of the control table, in address order.
+const std::vector<RegisterInfo>& mx64Registers(Protocol p);
+/// The register holding byte `addr`, or null (reserved or past the table).
+const RegisterInfo* mx64RegisterAt(Protocol p, std::uint16_t addr);
+
+/// 2.0 status packet error numbers (the error byte without its alert bit 0x80).
+namespace err2 {
+constexpr std::uint8_t kResultFail = 0x01, kInstruction = 0x02, kCrc = 0x03, kDataRange = 0x04, kDataLength = 0x05,
+                       kDataLimit = 0x06, kAccess = 0x07;
+}
+/// 1.0 status packet error bits.
+namespace err1 {
+constexpr std::uint8_t kInputVoltage = 0x01, kAngleLimit = 0x02, kOverheating = 0x04, kRange = 0x08,
+                       kChecksum = 0x10, kOverload = 0x20, kInstruction = 0x40;
+}
+/// Baud rate [bps] of a Baud Rate register value (1.0: 2 Mbps / (value + 1),
+/// 250..252 = 2.25, 2.5, 3 Mbps; 2.0: 0..7 = 9600, 57600, 115200, 1 M, 2 M,
+/// 3 M, 4 M, 4.5 Mbps); 0 for a value with no rate.
+int baudRateOf(Protocol p, std::uint32_t value);
 
 constexpr double kStepsPerRev = 4096.0;
 constexpr int kCenter = 2048;

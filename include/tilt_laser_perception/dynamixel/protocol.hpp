@@ -65,6 +65,8 @@ class PacketParser {
 
   std::size_t garbageBytes() const { return garbage_; }
   std::size_t badChecksums() const { return bad_checksum_; }
+  /// The ID of the last packet dropped for its checksum / CRC.
+  int lastBadId() const { return last_bad_id_; }
   std::size_t pending() const { return buffer_.size(); }
   Protocol protocol() const { return protocol_; }
 
@@ -73,6 +75,7 @@ class PacketParser {
   bool status_;
   std::vector<std::uint8_t> buffer_;
   std::size_t garbage_ = 0, bad_checksum_ = 0;
+  int last_bad_id_ = -1;
 };
 
 /// Little-endian helpers.

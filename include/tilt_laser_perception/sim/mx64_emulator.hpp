@@ -3,10 +3,20 @@
  * @brief An emulated Dynamixel MX-64 on a pseudo terminal, speaking Protocol
  *        1.0 or 2.0 from its control table and moving a ServoModel. ROS-free.
  *
- * Instructions: ping, read, write, reg write/action, factory reset, reboot
- * (2.0), sync write, sync read (2.0), bulk read; status return level and return
- * delay time are honoured. Faults: no status packet, bad checksum/CRC, garbage
- * before the header, hardware error bits, and the port vanishing.
+ * The control table is the e-manual's (dynamixel::mx64Registers): its
+ * initial values, access, EEPROM area and value ranges. Instructions: ping,
+ * read, write, reg write (sets Registered) and action, factory reset, reboot
+ * (2.0; the servo is silent for `reboot_time`), sync write, sync read (2.0),
+ * bulk read, bulk write (2.0); the indirect address area (2.0). Errors as the
+ * e-manual gives them: 2.0 access (read-only, undefined, or EEPROM with the
+ * torque on), data range, data length (part of a register), data limit (a
+ * goal beyond the position / velocity / current / PWM limits), instruction
+ * (unknown, or action with nothing registered), CRC; 1.0 range, angle limit
+ * (a goal outside CW..CCW), instruction and checksum bits. A line set to
+ * another baud rate than the Baud Rate register's is not answered. Status
+ * return level and return delay time are honoured. Faults: no status packet,
+ * bad checksum/CRC, garbage before the header, hardware error bits, the port
+ * vanishing.
  */
 #pragma once
 
@@ -30,10 +40,18 @@ struct Mx64Options {
   std::string link_path;
   double voltage = 12.0;      ///< [V]
   double temperature = 38.0;  ///< [degrees C]
+  /// After a reboot the servo answers nothing for this long [s]: an assumed
+  /// boot time (the e-manual gives none; a DYNAMIXEL blinks its LED once).
+  double reboot_time = 0.5;
+  /// Addresses this emulated model lacks (another model's table): reads and
+  /// writes of them are refused as undefined.
+  std::vector<std::uint16_t> undefined_addresses;
 };
 
 struct Mx64Stats {
   std::atomic<unsigned long> packets{0}, replies{0}, bad_packets{0}, garbage_bytes{0};
+  std::atomic<unsigned long> error_replies{0};    ///< status packets with an error (not hardware alerts)
+  std::atomic<unsigned long> wrong_baud_bytes{0};  ///< bytes ignored: the line is at another baud rate
 };
 
 class Mx64Emulator {
@@ -70,8 +88,17 @@ class Mx64Emulator {
   void handle(const dynamixel::Packet& p);
   void reply(std::uint8_t error, const std::vector<std::uint8_t>& params, bool is_ping = false);
   void refresh(double t);
+  /// 0 when the write may be made, else its error (1.0 bits, 2.0 number).
+  std::uint8_t checkWrite(std::uint16_t addr, const std::vector<std::uint8_t>& data) const;
   void applyWrite(std::uint16_t addr, const std::vector<std::uint8_t>& data, double t);
-  void resetTable();
+  /// The bytes [addr, addr + len) as a read returns them (indirect data through their addresses).
+  std::vector<std::uint8_t> readBytes(std::uint16_t addr, std::uint16_t len) const;
+  /// The address an indirect data byte stands for; -1 when `addr` is none.
+  int indirectTarget(std::uint16_t addr) const;
+  void resetTable(bool eeprom_too = true);
+  bool lineBaudMatches() const;
+  bool lacks(std::uint16_t addr) const;  ///< a register this model lacks (options_.undefined_addresses)
+  bool lacksAny(std::uint16_t addr, std::uint16_t len) const;
   std::uint32_t get(const dynamixel::Reg& r) const;
   void set(const dynamixel::Reg& r, std::uint32_t v);
 
@@ -88,6 +115,7 @@ class Mx64Emulator {
   std::atomic<bool> no_reply_{false};
   std::atomic<int> corrupt_{0}, garbage_{0};
   std::uint8_t hw_error_ = 0;
+  double silent_until_ = 0.0;  ///< rebooting
   Mx64Stats stats_;
 };
 
