@@ -76,6 +76,9 @@ TEST(TiltLaserDriver, AgainstTheEmulatedHead) {
   double record = 9.0, warmup = 3.0;
   bool echoes = false;
   std::string scan_echo = "first";
+  double limit_min_deg = -1000, limit_max_deg = 1000;  // the servo's own limits, when set narrower
+  pnh.getParam("limit_min_deg", limit_min_deg);
+  pnh.getParam("limit_max_deg", limit_max_deg);
   pnh.getParam("echoes", echoes);
   pnh.getParam("scan_echo", scan_echo);
   pnh.getParam("truth", truth_path);
@@ -222,6 +225,20 @@ TEST(TiltLaserDriver, AgainstTheEmulatedHead) {
               rec.joints.size(), jrate, jn, jmax * 180 / M_PI, jp99 * 180 / M_PI);
   EXPECT_GT(jn, 200);
   EXPECT_LT(jp99 * 180 / M_PI, 0.2);
+  if (limit_min_deg > -1000) {
+    // The servo's limits narrower than the tilt range: the driver read them and
+    // sweeps within them, the whole of what they leave.
+    double lo = 1e9, hi = -1e9;
+    for (const auto& j : rec.joints) {
+      lo = std::min(lo, j.second * 180 / M_PI);
+      hi = std::max(hi, j.second * 180 / M_PI);
+    }
+    std::printf("servo limits %.1f..%.1f deg: the tilt went %.2f..%.2f deg\n", limit_min_deg, limit_max_deg, lo, hi);
+    EXPECT_GE(lo, limit_min_deg - 0.2);
+    EXPECT_LE(hi, limit_max_deg + 0.2);
+    EXPECT_LT(lo, limit_min_deg + 1.0);
+    EXPECT_GT(hi, limit_max_deg - 1.0);
+  }
   EXPECT_LT(jmax * 180 / M_PI, 0.5);
 }
 

@@ -54,6 +54,10 @@ void Mx64Emulator::resetTable(bool eeprom_too) {
   if (eeprom_too) {
     set(table_.firmware, v1 ? 39 : 41);
     set(table_.id, options_.id);
+    if (options_.limit_lo <= options_.limit_hi) {
+      set(v1 ? table_.cw_angle_limit : table_.min_position_limit, static_cast<std::uint32_t>(options_.limit_lo));
+      set(v1 ? table_.ccw_angle_limit : table_.max_position_limit, static_cast<std::uint32_t>(options_.limit_hi));
+    }
   }
   set(table_.goal_position, dynamixel::kCenter);
   registered_.clear();

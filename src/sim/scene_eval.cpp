@@ -134,6 +134,7 @@ struct LineTruth {
   std::vector<core::EdgePoint> found;
   int veil_segments = 0;  // segments most of whose points are mixed pixels
   int overhanging = 0;    // segments with own points more than 1 cm beyond their ends
+  int mixed = 0, mixed_in_segments = 0;  // mixed pixels, and those in segments
 };
 
 SweepEval judge(const Scene& scene, TruthHeights& truth_h, const core::SweepResult& sw,
@@ -166,6 +167,8 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, const core::SweepResu
     const LineTruth& t = it->second;
     e.veil_segments += t.veil_segments;
     e.overhanging_segments += t.overhanging;
+    e.mixed_pixels += t.mixed;
+    e.mixed_in_segments += t.mixed_in_segments;
     const EdgeScore es = scoreEdges(t.found, t.edges);
     edges_found += es.edge_points;
     edges_spurious += es.spurious;
@@ -333,10 +336,12 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
       for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
       for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
       LineTruth lt{hs.scan.face, hs.scan.ranges, hs.scan.edges, split.edges};
+      for (const unsigned char m : hs.scan.mixed) lt.mixed += m;
       for (const auto& s : split.segments) {
         int mixed = 0;
         for (int i = s.first; i <= s.last; ++i) mixed += hs.scan.mixed[i];
         lt.veil_segments += 2 * mixed > s.count;
+        lt.mixed_in_segments += mixed;
         lt.overhanging += core::segmentOverhang(hs.scan.view(), s) > 0.01;
       }
       truth[stamp] = std::move(lt);
@@ -387,17 +392,20 @@ void dumpSweep(const core::SweepResult& sw, const core::HeightMapGrid& grid, con
 std::string evalCsvHeader() {
   return "sweep,lines,planes,true_faces,correct,over,under,missed,noise,normal_err_deg,offset_err_m,edge_precision,"
          "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
-         "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m";
+         "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m,mixed_pixels,"
+         "mixed_in_segments";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
   char buf[640];
   std::snprintf(buf, sizeof(buf),
-                "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f",
+                "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,"
+                "%d,%d",
                 sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
                 e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
                 e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
-                e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m);
+                e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m,
+                e.mixed_pixels, e.mixed_in_segments);
   return buf;
 }
 
@@ -406,6 +414,7 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
   const double n = ev.empty() ? 1.0 : static_cast<double>(ev.size());
   double correct = 0, over = 0, under = 0, missed = 0, noise = 0;
   int veil = 0, overhanging = 0;
+  double mixed = 0, mixed_in = 0;
   // The front of the feet is judged once the robot has walked its length
   // (before, the fused map has only what a standing robot sees): over the
   // sweeps after 1 m walked, or all when it stands.
@@ -424,6 +433,8 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     s.fused_ms += e.fused_ms / n;
     veil += e.veil_segments;
     overhanging += e.overhanging_segments;
+    mixed += e.mixed_pixels / n;
+    mixed_in += e.mixed_in_segments / n;
     correct += e.correct;
     over += e.over;
     under += e.under;
@@ -443,15 +454,17 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     front /= front_n;
     fused_front /= front_n;
   }
-  char buf[768];
+  char buf[1024];
   std::snprintf(buf, sizeof(buf),
                 "correct=%.2f over=%.2f under=%.2f missed=%.2f noise=%.2f normal_err_deg=%.3f offset_err_m=%.4f "
                 "edge_precision=%.3f edge_recall=%.3f heightmap_rmse_m=%.4f heightmap_coverage=%.3f split_ms=%.2f "
                 "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d front_coverage=%.3f "
-                "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f",
+                "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f mixed_pixels=%.1f "
+                "mixed_in_segments=%.1f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
-                s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms);
+                s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms, mixed,
+                mixed_in);
   return buf;
 }
 

@@ -32,11 +32,12 @@ void usage() {
       "usage: tilt_laser_sim --scene NAME [--protocol 1|2] [--seed N] [--port P] [--truth FILE]\n"
       "                      [--fault SPEC]... [--servo-link PATH] [--id N] [--drift PPM]\n"
       "                      [--clock-offset MS] [--motor-ppm PPM] [--noise datasheet|percent|none]\n"
-      "                      [--initial-tilt DEG] [--laser-boot-time S] [--no-multi-echo]\n"
+      "                      [--initial-tilt DEG] [--laser-boot-time S] [--no-multi-echo] [--servo-limits-deg LO,HI]\n"
       "                      [--head FILE] [--duration S] [--walk SPEED ... --walk-clock FILE]\n"
       "Prints the laser's address (host:port) and the servo's device path, one per line.\n"
       "  --laser-boot-time S: the laser is unreachable this long after a reboot (default 10, its data sheet's)\n"
       "  --no-multi-echo: a UTM-30LX without -EW (ND/NE/HD/HE answered 0E)\n"
+      "  --servo-limits-deg LO,HI: the servo's position limits set so (default: the e-manual's, the whole turn)\n"
       "Fault SPEC is NAME@T[:ARG], T seconds after start:\n"
       "  laser: drop@T  silent@T[:DURATION]  corrupt@T[:SCANS]  truncate@T[:SCANS]  delay@T:MS (0 ends it)  reboot@T\n"
       "  servo: servo-noreply@T[:DURATION]  servo-badcrc@T[:N]  servo-garbage@T[:N]\n"
@@ -74,6 +75,7 @@ int main(int argc, char** argv) {
   int protocol = 2, id = 1;
   unsigned long seed = 1;
   double initial_tilt_deg = 30.0, duration = 0.0;
+  double servo_limits[2] = {0.0, 0.0};  // [deg]; equal: the e-manual's initial values
   sim::UtmOptions utm_opt;
   sim::NoiseParams noise;
   sim::RigErrors rig;
@@ -110,6 +112,13 @@ int main(int argc, char** argv) {
     else if (a == "--initial-tilt" && v) initial_tilt_deg = std::atof(argv[++i]);
     else if (a == "--laser-boot-time" && v) utm_opt.reboot_time = std::max(0.0, std::atof(argv[++i]));
     else if (a == "--no-multi-echo") utm_opt.multi_echo = false;
+    else if (a == "--servo-limits-deg" && v) {
+      if (std::sscanf(argv[++i], "%lf,%lf", &servo_limits[0], &servo_limits[1]) != 2 ||
+          !(servo_limits[0] < servo_limits[1])) {
+        std::fprintf(stderr, "tilt_laser_sim: --servo-limits-deg LO,HI with LO < HI\n");
+        return 2;
+      }
+    }
     else if (a == "--head" && v) head_path = argv[++i];
     else if (a == "--duration" && v) duration = std::atof(argv[++i]);
     else if (a == "--noise" && v) {
@@ -191,6 +200,10 @@ int main(int argc, char** argv) {
     mx.protocol = protocol == 1 ? dynamixel::Protocol::V1 : dynamixel::Protocol::V2;
     mx.id = static_cast<std::uint8_t>(id);
     mx.link_path = link;
+    if (servo_limits[0] < servo_limits[1]) {
+      mx.limit_lo = dynamixel::radToPosition(servo_limits[0] * M_PI / 180.0);
+      mx.limit_hi = dynamixel::radToPosition(servo_limits[1] * M_PI / 180.0);
+    }
     sim::Mx64Emulator servo_emu(servo, mx);
     servo_emu.start();
 

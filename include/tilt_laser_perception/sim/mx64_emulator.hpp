@@ -46,6 +46,9 @@ struct Mx64Options {
   /// Addresses this emulated model lacks (another model's table): reads and
   /// writes of them are refused as undefined.
   std::vector<std::uint16_t> undefined_addresses;
+  /// Position limits as a user set them (raw steps; 1.0: CW/CCW Angle Limit,
+  /// 2.0: Min/Max Position Limit); lo > hi: the e-manual's initial values.
+  std::int32_t limit_lo = 1, limit_hi = 0;
 };
 
 struct Mx64Stats {

@@ -91,6 +91,8 @@ struct SweepEval {
   double external_ms = 0.0;               ///< SceneEvalOptions::segmenter's time
   int veil_segments = 0;                  ///< segments most of whose points are mixed pixels (truth)
   int overhanging_segments = 0;           ///< segments with own points more than 1 cm beyond their ends
+  int mixed_pixels = 0;                   ///< beams whose range lies between two faces (truth)
+  int mixed_in_segments = 0;              ///< of them, those the split put in a segment
   std::vector<std::string> missed_faces;  ///< "object/label" of the faces missed
   /// For each missed face, the segments on it or in a plane that took its
   /// points: "line L beams A-B (N points, mostly FACE) -> plane P".
