@@ -83,7 +83,7 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
   out.face.assign(n, -1);
   out.mixed.assign(n, 0);
   out.echoes.assign(n, BeamEchoes());
-  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0), echo_gauss(0.0, 1.0);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   const double cos_grazing = std::cos(noise_.grazing_limit_deg * M_PI / 180.0);
   const double half = 0.5 * model_.angle_increment;
@@ -174,8 +174,10 @@ void LidarSimulator::scan(double t0, const PoseFunction& pose, SimScan& out) {
     e.intensity[0] = out.intensities[i];
     e.mixed[0] = out.mixed[i];
     for (int k = 0; k < n_far; ++k) {
-      // (their own generator: the single-echo ranges stay as they were)
-      double t = far[k].t + noise_.sigma(far[k].t) * gauss(echo_rng_);
+      // (their own generator and distribution: normal_distribution keeps the
+      // second value of each pair it draws, so sharing `gauss` would shift the
+      // single-echo ranges' noise)
+      double t = far[k].t + noise_.sigma(far[k].t) * echo_gauss(echo_rng_);
       t = std::round(t * 1000.0) / 1000.0;
       e.range[e.count] = static_cast<float>(t);
       e.intensity[e.count] = static_cast<float>(
