@@ -1069,6 +1069,50 @@ TEST(HeightMap, AMixedPixelIsNoObstacle) {
   EXPECT_NEAR(g.heights[cell(g, veil)], veil.z(), 1e-6);
 }
 
+TEST(HeightMap, AGridBuiltAgainEqualsAFreshOne) {
+  // buildHeightMap clears only the last map's box when it is given that map
+  // again: a second, smaller sweep into the same grid must equal the grid a
+  // fresh build of it gives (nothing of the first left outside the second's box).
+  const auto floorSweep = [](double x0, double x1, double y0, double y1, double z) {
+    SweepResult s;
+    Plane pl;
+    pl.fit.normal = Eigen::Vector3d::UnitZ();
+    pl.fit.offset = z;
+    pl.fit.centroid = Eigen::Vector3d(0.5 * (x0 + x1), 0.5 * (y0 + y1), z);
+    pl.area = (x1 - x0) * (y1 - y0);
+    pl.boundary = {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}};
+    s.planes = {pl};
+    SweepLine line;  // a pole: an obstacle cell
+    for (int i = 0; i < 5; ++i) line.points.emplace_back(static_cast<float>(x1 - 0.05), static_cast<float>(y0 + 0.05), 0.1f * (i + 1));
+    s.lines.push_back(line);
+    return s;
+  };
+  HeightMapParams p;
+  p.origin_x = 0.0;
+  p.origin_y = -1.0;
+  p.width = 200;
+  p.height = 200;
+  HeightMapGrid reused, fresh;
+  buildHeightMap(floorSweep(0.1, 1.9, -0.9, 0.9, 0.0), p, reused);
+  const int known_first = static_cast<int>(std::count_if(reused.heights.begin(), reused.heights.end(), [](float h) { return !std::isnan(h); }));
+  const SweepResult second = floorSweep(0.5, 1.0, -0.2, 0.3, 0.1);
+  buildHeightMap(second, p, reused);
+  buildHeightMap(second, p, fresh);
+  ASSERT_EQ(reused.heights.size(), fresh.heights.size());
+  int differ = 0, known = 0;
+  for (std::size_t c = 0; c < fresh.heights.size(); ++c) {
+    const bool same_h = (std::isnan(reused.heights[c]) && std::isnan(fresh.heights[c])) || reused.heights[c] == fresh.heights[c];
+    differ += !same_h || reused.classes[c] != fresh.classes[c] || reused.plane_ids[c] != fresh.plane_ids[c];
+    known += !std::isnan(fresh.heights[c]);
+  }
+  EXPECT_GT(known_first, 30000);
+  EXPECT_GT(known, 2000);
+  EXPECT_LT(known, 3000);
+  EXPECT_EQ(differ, 0);
+  EXPECT_EQ(reused.box_x0, fresh.box_x0);
+  EXPECT_EQ(reused.box_y1, fresh.box_y1);
+}
+
 TEST(SweepAssembler, DropsASweepThatLostTooManyLines) {
   SweepCounters c;
   const std::vector<SweepResult> sweeps = runTriangle(0.05, &c);  // 2 or 3 of 24 lines lost: more than 5 %

@@ -52,6 +52,7 @@ void FusedHeightMap::clear() {
   seen_.assign(cells, kNaN);
   have_epoch_ = false;
   walked_.assign(cells, 0.0f);
+  row_oldest_.assign(static_cast<std::size_t>(grid_.params.height), std::numeric_limits<float>::infinity());
   planes_.clear();
 }
 
@@ -86,6 +87,8 @@ void FusedHeightMap::recentre(double x, double y) {
   std::vector<CellClass> sc;
   shiftGrid(grid_.classes, w, h, dx, dy, CellClass::Unknown, sc);
   shiftGrid(seen_, w, h, dx, dy, kNaN, sf);
+  // The rows' bounds move with their rows (a bound stays one when cells leave a row).
+  shiftGrid(row_oldest_, 1, h, 0, dy, std::numeric_limits<float>::infinity(), sf);
 }
 
 void FusedHeightMap::forgetCell(std::size_t c) {
@@ -183,6 +186,7 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
   // Fuse every cell the sweep made a height for.
   for (int iy = by0; iy <= by1; ++iy) {
     const std::size_t row = grid_.index(0, iy);
+    row_oldest_[iy] = std::min(row_oldest_[iy], now);
     for (int ix = bx0; ix <= bx1; ++ix) {
       const std::size_t c = row + ix;
       const float hn = sweep_.heights[c];
@@ -264,11 +268,17 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
 
 void FusedHeightMap::forget(double now) {
   const float before = static_cast<float>(now - p_.forget_time - epoch_);
-  const std::size_t n = seen_.size();
-  const float* seen = seen_.data();
-  // Most cells are recent or never seen: one compare each, then the few to forget.
-  for (std::size_t c = 0; c < n; ++c)
-    if (seen[c] < before) forgetCell(c);  // NaN (never seen) is not
+  const int w = grid_.params.width;
+  for (int iy = 0; iy < grid_.params.height; ++iy) {
+    if (!(row_oldest_[iy] < before)) continue;  // nothing in this row is that old
+    const std::size_t c0 = grid_.index(0, iy);
+    float oldest = std::numeric_limits<float>::infinity();
+    for (std::size_t c = c0; c < c0 + static_cast<std::size_t>(w); ++c) {
+      if (seen_[c] < before) forgetCell(c);  // NaN (never seen) is not
+      else if (seen_[c] < oldest) oldest = seen_[c];
+    }
+    row_oldest_[iy] = oldest;
+  }
   for (auto it = planes_.begin(); it != planes_.end();)
     it = it->second.last_seen < now - p_.forget_time ? planes_.erase(it) : std::next(it);
 }

@@ -85,6 +85,9 @@ class FusedHeightMap {
   double epoch_ = 0.0;
   bool have_epoch_ = false;
   std::vector<float> walked_;    ///< distance walked when last seen [m]
+  /// Per row, at most the oldest seen_ of its cells (+inf: none seen): rows
+  /// with nothing to forget are skipped without looking at their cells.
+  std::vector<float> row_oldest_;
   std::map<int, TerrainPlane> planes_;
   int next_id_ = 0;
   bool placed_ = false;

@@ -44,6 +44,8 @@ struct HeightMapGrid {
 };
 
 /// Builds the height map of a sweep (planes and points in the map frame, z up).
+/// When `out` holds the map an earlier call made of the same size (unchanged
+/// since), only that map's box is cleared first, not the whole grid.
 void buildHeightMap(const SweepResult& sweep, const HeightMapParams& params, HeightMapGrid& out);
 
 }  // namespace core
