@@ -78,6 +78,8 @@ TEST(TiltLaserDriver, AgainstTheEmulatedHead) {
   std::string scan_echo = "first";
   double limit_min_deg = -1000, limit_max_deg = 1000;  // the servo's own limits, when set narrower
   pnh.getParam("limit_min_deg", limit_min_deg);
+  bool check_stamps = true;
+  pnh.getParam("check_stamps", check_stamps);
   pnh.getParam("limit_max_deg", limit_max_deg);
   pnh.getParam("echoes", echoes);
   pnh.getParam("scan_echo", scan_echo);
@@ -164,9 +166,11 @@ TEST(TiltLaserDriver, AgainstTheEmulatedHead) {
   // emulator and the driver alike (joint reads late, 39.9 Hz) gave one scan
   // of 2.5 ms. The timing goal is the figure printed above; the test asks
   // for the goal at the 99th percentile and leaves room for a busier machine.
-  EXPECT_LT(stamp_p99, 1.0);
-  EXPECT_LT(max_err, 5.0);
-  EXPECT_LT(rms, 0.3);
+  if (check_stamps) {  // (the drift tests; the limits test leaves the timing to them)
+    EXPECT_LT(stamp_p99, 1.0);
+    EXPECT_LT(max_err, 5.0);
+    EXPECT_LT(rms, 0.3);
+  }
   EXPECT_LT(median, 0.012);                 // data sheet noise: sigma 10 mm, rounded to mm
   EXPECT_GT(static_cast<double>(close) / beams, 0.98);  // the rest: mixed pixels at depth jumps
 
