@@ -9,6 +9,7 @@ namespace core {
 
 std::string FusedMapParams::validate() const {
   if (!(size > 0.0) || !std::isfinite(size)) return "size must be positive";
+  if (!(resolution >= 0.0) || !std::isfinite(resolution) || resolution > 0.5 * size) return "resolution must be 0 (the sweep map's) or positive and under half the size";
   if (!(forget_time > 0.0)) return "forget_time must be positive";
   if (!(sigma_min > 0.0) || !(sigma_range >= 0.0) || !std::isfinite(sigma_range)) return "sigma_min must be positive, sigma_range not negative";
   if (!(drift_per_metre >= 0.0) || !std::isfinite(drift_per_metre)) return "drift_per_metre must not be negative";
@@ -36,7 +37,8 @@ void shiftGrid(std::vector<T>& v, int w, int h, int dx, int dy, const T& fill, s
 
 FusedHeightMap::FusedHeightMap(const HeightMapParams& cells, const FusedMapParams& params) : p_(params) {
   grid_.params = cells;
-  const int n = std::max(1, static_cast<int>(std::lround(p_.size / cells.resolution)));
+  if (p_.resolution > 0.0) grid_.params.resolution = p_.resolution;
+  const int n = std::max(1, static_cast<int>(std::lround(p_.size / grid_.params.resolution)));
   grid_.params.width = grid_.params.height = n;
   clear();
 }

@@ -61,12 +61,14 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("fuse_sweeps", fuse_, false);
   pnh.param<std::string>("robot_frame", robot_frame_, "base_footprint");
   pnh.param("fused_map_size", fp.size, fp.size);
+  pnh.param("fused_map_resolution", fp.resolution, fp.resolution);
   pnh.param("forget_time", fp.forget_time, fp.forget_time);
   pnh.param("map_sigma_min", fp.sigma_min, fp.sigma_min);
   pnh.param("map_sigma_range", fp.sigma_range, fp.sigma_range);
   pnh.param("odom_drift_per_metre", fp.drift_per_metre, fp.drift_per_metre);
   pnh.param("fusion_gate", fp.gate, fp.gate);
-  if (const std::string bad = fp.validate(); !bad.empty() || fp.size / map_params_.resolution > 4000) {
+  if (const std::string bad = fp.validate();
+      !bad.empty() || fp.size / (fp.resolution > 0.0 ? fp.resolution : map_params_.resolution) > 4000) {
     NODELET_ERROR("invalid fused map parameters (%s): using the defaults", bad.empty() ? "more than 4000 cells a side" : bad.c_str());
     fp = core::FusedMapParams();
   }

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <map>
+#include <memory>
 #include <set>
 
 #include "tilt_laser_perception/dynamixel/mx64.hpp"
@@ -137,7 +138,7 @@ struct LineTruth {
   int mixed = 0, mixed_in_segments = 0;  // mixed pixels, and those in segments
 };
 
-SweepEval judge(const Scene& scene, TruthHeights& truth_h, const core::SweepResult& sw,
+SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_fused, const core::SweepResult& sw,
                 const std::map<double, LineTruth>& truth, const std::map<double, double>& split_time,
                 const SceneEvalOptions& o, double latency, const Eigen::Isometry3d& base, double travelled,
                 core::HeightMapGrid& grid, core::FusedHeightMap& fused) {
@@ -263,7 +264,7 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, const core::SweepResu
   fused.addSweep(sw, core::meanOrigin(sw), sw.end, travelled);
   e.fused_ms = (cpuNow() - f0) * 1e3;
   if (!o.dump_prefix.empty()) dumpSweep(sw, fused.grid(), o.dump_prefix + "_fused", base, frame, true);
-  const MapScore f = scoreMap(fused.grid(), truth_h, base, o);
+  const MapScore f = scoreMap(fused.grid(), truth_fused, base, o);
   e.fused_rmse_m = f.rmse;
   e.fused_coverage = f.coverage;
   e.fused_front_coverage = f.front;
@@ -306,6 +307,11 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   core::HeightMapGrid grid;
   core::FusedHeightMap fused(o.heightmap, o.fused);
   TruthHeights truth_h(scene, o.heightmap.resolution, head.axis_origin.z());
+  const double fused_res = o.fused.resolution > 0.0 ? o.fused.resolution : o.heightmap.resolution;
+  std::unique_ptr<TruthHeights> own_fused_truth;
+  if (fused_res != o.heightmap.resolution)
+    own_fused_truth = std::make_unique<TruthHeights>(scene, fused_res, head.axis_origin.z());
+  TruthHeights& truth_f = own_fused_truth ? *own_fused_truth : truth_h;
   double next_joint = 0.0, next_scan = 0.0;
   const double joint_period = 1.0 / o.joint_rate;
   for (double t = 0.0; static_cast<int>(out.size()) < o.sweeps && t < 600.0; t += 0.001) {
@@ -355,7 +361,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
       // Without a pose per line: the sweep as the head saw it, put where the base was at its end.
       if (o.walk.walking() && !o.pose_per_line) core::transformSweep(done, end_pose);
       if (o.on_sweep) o.on_sweep(done);
-      out.push_back(judge(scene, truth_h, done, truth, split_time, o, done.finish_seconds, end_pose,
+      out.push_back(judge(scene, truth_h, truth_f, done, truth, split_time, o, done.finish_seconds, end_pose,
                           walk.travelled(done.end), grid, fused));
       // Forget the truth of lines before this sweep.
       truth.erase(truth.begin(), truth.lower_bound(done.start));
