@@ -11,6 +11,20 @@
 
 namespace tilt_laser_perception {
 
+namespace {
+/// The angles, times and range limits of a LaserScan or MultiEchoLaserScan.
+template <class Msg>
+void scanGeometry(const scip::UtmScan& s, Msg& m) {
+  m.angle_min = s.angle_min;
+  m.angle_max = s.angle_max;
+  m.angle_increment = s.angle_increment;
+  m.time_increment = s.time_increment;
+  m.scan_time = s.scan_time;
+  m.range_min = s.range_min;
+  m.range_max = s.range_max;
+}
+}  // namespace
+
 TiltLaserDriverNodelet::~TiltLaserDriverNodelet() {
   diagnostics_timer_.stop();
   // Both loops poll their stop flag at least every 0.1 s and their I/O has timeouts: joined within 2 s.
@@ -155,26 +169,14 @@ void TiltLaserDriverNodelet::onInit() {
           msg->header.seq = scan_seq_++;
           msg->header.stamp = ros::Time(s.stamp);
           msg->header.frame_id = frame_id_;
-          msg->angle_min = s.angle_min;
-          msg->angle_max = s.angle_max;
-          msg->angle_increment = s.angle_increment;
-          msg->time_increment = s.time_increment;
-          msg->scan_time = s.scan_time;
-          msg->range_min = s.range_min;
-          msg->range_max = s.range_max;
+          scanGeometry(s, *msg);
           const std::size_t n = s.ranges.size();
           const bool multi = !s.echo_count.empty();
           const bool with_intensity = !s.intensities.empty();
           if (multi && multi_echo_out_) {
             auto e = boost::make_shared<sensor_msgs::MultiEchoLaserScan>();
             e->header = msg->header;
-            e->angle_min = s.angle_min;
-            e->angle_max = s.angle_max;
-            e->angle_increment = s.angle_increment;
-            e->time_increment = s.time_increment;
-            e->scan_time = s.scan_time;
-            e->range_min = s.range_min;
-            e->range_max = s.range_max;
+            scanGeometry(s, *e);
             e->ranges.resize(n);
             if (with_intensity) e->intensities.resize(n);
             for (std::size_t i = 0; i < n; ++i) {
