@@ -130,7 +130,7 @@ bool ServoDriver::openAndConfigure() {
   return true;
 }
 
-bool ServoDriver::writeChecked(const dynamixel::Reg& reg, std::uint32_t value, bool* torque_was_on) {
+bool ServoDriver::writeChecked(const dynamixel::Reg& reg, std::uint32_t value) {
   const bool v1 = opt_.protocol == Protocol::V1;
   const auto& tab = dynamixel::mx64Table(opt_.protocol);
   std::uint8_t e = 0;
@@ -144,7 +144,6 @@ bool ServoDriver::writeChecked(const dynamixel::Reg& reg, std::uint32_t value, b
     // "Data in the EEPROM Area can only be written when Torque Enable is 0."
     if (bus_.writeReg(opt_.id, tab.torque_enable, 0, &e, true, opt_.timeout) == TxResult::Ok &&
         bus_.writeReg(opt_.id, reg, value, &e, true, opt_.timeout) == TxResult::Ok && !(e & 0x7F)) {
-      if (torque_was_on) *torque_was_on = true;
       if (log_)
         log_(Level::Info, std::string("servo: ") + info->name + " (EEPROM) written with the torque off, as the servo asks");
       return true;  // (the configuration switches the torque on again at its end)

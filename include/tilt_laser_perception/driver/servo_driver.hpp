@@ -97,7 +97,7 @@ class ServoDriver {
   /// refused with the torque on (access error) is made again with the torque
   /// off; any other error is logged with the register, the model and the
   /// e-manual's meaning. True when the value was written.
-  bool writeChecked(const dynamixel::Reg& reg, std::uint32_t value, bool* torque_was_on = nullptr);
+  bool writeChecked(const dynamixel::Reg& reg, std::uint32_t value);
   /// Reads the servo's position limits (and puts it in joint / position control mode).
   bool readLimits();
   void handleHardwareError(std::uint8_t bits, double now);
