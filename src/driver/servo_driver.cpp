@@ -135,15 +135,14 @@ bool ServoDriver::writeChecked(const dynamixel::Reg& reg, std::uint32_t value) {
   const auto& tab = dynamixel::mx64Table(opt_.protocol);
   std::uint8_t e = 0;
   if (bus_.writeReg(opt_.id, reg, value, &e, true, opt_.timeout) != TxResult::Ok) return false;
-  const std::uint8_t refusal = v1 ? (e & (dynamixel::err1::kAngleLimit | dynamixel::err1::kRange |
-                                          dynamixel::err1::kChecksum | dynamixel::err1::kInstruction))
-                                  : (e & 0x7F);
+  const std::uint8_t refusal = dynamixel::refusal(opt_.protocol, e);
   if (!refusal) return true;
   const dynamixel::RegisterInfo* info = dynamixel::mx64RegisterAt(opt_.protocol, reg.addr);
   if (!v1 && refusal == dynamixel::err2::kAccess && info && info->eeprom && info->writable) {
     // "Data in the EEPROM Area can only be written when Torque Enable is 0."
     if (bus_.writeReg(opt_.id, tab.torque_enable, 0, &e, true, opt_.timeout) == TxResult::Ok &&
-        bus_.writeReg(opt_.id, reg, value, &e, true, opt_.timeout) == TxResult::Ok && !(e & 0x7F)) {
+        bus_.writeReg(opt_.id, reg, value, &e, true, opt_.timeout) == TxResult::Ok &&
+        !dynamixel::refusal(opt_.protocol, e)) {
       if (log_)
         log_(Level::Info, std::string("servo: ") + info->name + " (EEPROM) written with the torque off, as the servo asks");
       return true;  // (the configuration switches the torque on again at its end)

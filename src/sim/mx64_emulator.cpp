@@ -225,10 +225,11 @@ std::uint8_t Mx64Emulator::checkWrite(std::uint16_t addr, const std::vector<std:
   }
   if (goal && !v1) {
     // Position Control Mode (3): 0..4095 is the range, Min..Max Position Limit the limit.
-    const std::int64_t mode = at(11), g = at(116);
-    if (mode == 3 || mode == 5) {
-      if (mode == 3 && (g < 0 || g > 4095)) return err2::kDataRange;
-      if (mode == 3 && (g < at(52) || g > at(48))) return err2::kDataLimit;
+    // (Extended position modes take the register's whole range.)
+    const std::int64_t g = at(116);
+    if (at(11) == 3) {
+      if (g < 0 || g > 4095) return err2::kDataRange;
+      if (g < at(52) || g > at(48)) return err2::kDataLimit;
     }
   }
   if (goal_velocity && std::abs(at(104)) > at(44)) return err2::kDataLimit;
@@ -283,9 +284,7 @@ void Mx64Emulator::reply(std::uint8_t error, const std::vector<std::uint8_t>& pa
   const std::uint32_t level = get(table_.status_return_level);
   if (!is_ping && level == 0) return;
   if (no_reply_.load()) return;
-  const bool v1 = options_.protocol == Protocol::V1;
-  if ((v1 ? (error & (err1::kAngleLimit | err1::kRange | err1::kChecksum | err1::kInstruction)) : (error & 0x7F)) != 0)
-    ++stats_.error_replies;
+  if (dynamixel::refusal(options_.protocol, error)) ++stats_.error_replies;
   const std::uint32_t delay_us = get(table_.return_delay) * 2;
   if (delay_us > 0) std::this_thread::sleep_for(std::chrono::microseconds(delay_us));
   std::vector<std::uint8_t> bytes;
@@ -375,14 +374,12 @@ void Mx64Emulator::handle(const dynamixel::Packet& p) {
     case inst::kAction: {
       // "Instruction Error: ... Action without Reg Write".
       if (registered_.empty()) return broadcast ? void() : reply(error(err1::kInstruction, err2::kInstruction), {});
-      {
-        const std::size_t head = v1 ? 1 : 2;
-        const std::uint16_t addr =
-            v1 ? registered_[0] : static_cast<std::uint16_t>(dynamixel::getLE(registered_.data(), 2));
-        applyWrite(addr, std::vector<std::uint8_t>(registered_.begin() + static_cast<long>(head), registered_.end()), t);
-        registered_.clear();
-        set(table_.registered, 0);
-      }
+      const std::size_t head = v1 ? 1 : 2;
+      const std::uint16_t addr =
+          v1 ? registered_[0] : static_cast<std::uint16_t>(dynamixel::getLE(registered_.data(), 2));
+      applyWrite(addr, std::vector<std::uint8_t>(registered_.begin() + static_cast<long>(head), registered_.end()), t);
+      registered_.clear();
+      set(table_.registered, 0);
       if (!broadcast && get(table_.status_return_level) >= 2) reply(hw, {});
       return;
     }

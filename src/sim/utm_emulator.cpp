@@ -179,13 +179,11 @@ void UtmEmulator::run() {
     if (fds[0].revents & POLLIN) {
       const int fd = ::accept(listen_fd_, nullptr, nullptr);
       if (fd >= 0) {
-        {
-          closeClient();  // the sensor serves one client: a new connection replaces the old one
-          client_fd_ = fd;
-          const int one = 1;
-          ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
-          ++stats_.connections;
-        }
+        closeClient();  // the sensor serves one client: a new connection replaces the old one
+        client_fd_ = fd;
+        const int one = 1;
+        ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
+        ++stats_.connections;
       }
     }
     if (nfds == 2 && client_fd_ >= 0 && (fds[1].revents & (POLLIN | POLLHUP | POLLERR))) {
@@ -228,8 +226,7 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
   if (cmd == "VV") {
     reply = echo + statusLine("00");
     infoLine("VEND:Hokuyo Automatic Co.,Ltd.", reply);
-    infoLine(options_.multi_echo ? "PROD:SOKUIKI Sensor TOP-URG UTM-30LX-EW" : "PROD:SOKUIKI Sensor TOP-URG UTM-30LX",
-             reply);
+    infoLine(std::string("PROD:SOKUIKI Sensor TOP-URG ") + model(), reply);
     infoLine("FIRM:1.1.4(14/Jun./2011)", reply);
     infoLine("PROT:SCIP 2.0", reply);
     infoLine("SERI:" + options_.serial, reply);
@@ -238,7 +235,7 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
   }
   if (cmd == "PP") {
     reply = echo + statusLine("00");
-    infoLine(options_.multi_echo ? "MODL:UTM-30LX-EW" : "MODL:UTM-30LX", reply);
+    infoLine(std::string("MODL:") + model(), reply);
     for (const char* kv : {"DMIN:23", "DMAX:60000", "ARES:1440", "AMIN:0", "AMAX:1080",
                            "AFRT:540", "SCAN:2400"})
       infoLine(kv, reply);
@@ -249,7 +246,7 @@ void UtmEmulator::handleCommand(const std::string& line, std::string& reply) {
     reply = echo + statusLine("00");
     char t[32];
     std::snprintf(t, sizeof(t), "TIME:%06X", sensorStamp(now));
-    infoLine(options_.multi_echo ? "MODL:UTM-30LX-EW" : "MODL:UTM-30LX", reply);
+    infoLine(std::string("MODL:") + model(), reply);
     infoLine(std::string("LASR:") + (laser_on_ ? "ON" : "OFF"), reply);
     infoLine("SCSP:Initial(2400[rpm])", reply);
     infoLine(time_adjust_ ? "MESM:Time Adjust Mode" : "MESM:Measuring by Normal Mode", reply);

@@ -71,6 +71,13 @@ namespace err1 {
 constexpr std::uint8_t kInputVoltage = 0x01, kAngleLimit = 0x02, kOverheating = 0x04, kRange = 0x08,
                        kChecksum = 0x10, kOverload = 0x20, kInstruction = 0x40;
 }
+/// The part of a status packet's error byte that says the instruction was
+/// refused (1.0: angle limit, range, checksum, instruction bits; 2.0: the
+/// error number), without the hardware alarms; 0 when it was carried out.
+inline std::uint8_t refusal(Protocol p, std::uint8_t error) {
+  return p == Protocol::V1 ? error & (err1::kAngleLimit | err1::kRange | err1::kChecksum | err1::kInstruction)
+                           : error & 0x7F;
+}
 /// Baud rate [bps] of a Baud Rate register value (1.0: 2 Mbps / (value + 1),
 /// 250..252 = 2.25, 2.5, 3 Mbps; 2.0: 0..7 = 9600, 57600, 115200, 1 M, 2 M,
 /// 3 M, 4 M, 4.5 Mbps); 0 for a value with no rate.

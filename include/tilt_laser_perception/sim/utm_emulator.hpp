@@ -92,6 +92,7 @@ class UtmEmulator {
   void closeClient();
   void powerUp(double t, double clock_ms);
   bool sendAll(const std::string& s);
+  const char* model() const { return options_.multi_echo ? "UTM-30LX-EW" : "UTM-30LX"; }
   bool openListener();  ///< on port_ (0: any free port, then port_ is set)
   void closeListener();
 
