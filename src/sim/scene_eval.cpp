@@ -307,7 +307,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   core::HeightMapGrid grid;
   core::FusedHeightMap fused(o.heightmap, o.fused);
   TruthHeights truth_h(scene, o.heightmap.resolution, head.axis_origin.z());
-  const double fused_res = o.fused.resolution > 0.0 ? o.fused.resolution : o.heightmap.resolution;
+  const double fused_res = fused.grid().params.resolution;  // its own cells, or the sweep map's
   std::unique_ptr<TruthHeights> own_fused_truth;
   if (fused_res != o.heightmap.resolution)
     own_fused_truth = std::make_unique<TruthHeights>(scene, fused_res, head.axis_origin.z());
