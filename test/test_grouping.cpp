@@ -811,6 +811,37 @@ TEST(SweepAssembler, WaitsForLateTransformsAndDropsLinesInATfGap) {
   EXPECT_GE(c.lines_no_pose, 100u);
 }
 
+TEST(SweepAssembler, SaysWhatItsFirstLineWaitsFor) {
+  // The grouper nodelet wakes for a joint state or a transform only when the
+  // first waiting line waits for that kind of input (issue 18).
+  using Status = SweepAssembler::PoseStatus;
+  using Waiting = SweepAssembler::Waiting;
+  bool pose_known = true;
+  SweepAssembler a(shortSweeps(), TiltChain(), [&](double, Eigen::Isometry3d& pose) {
+    if (!pose_known) return Status::Wait;
+    pose.setIdentity();
+    return Status::Ok;
+  });
+  drive(a, triangle, 0.9, 0.0, nullptr);  // a sweep began at the reversal at 0.6 s; the joint falls
+  EXPECT_EQ(a.waiting(), Waiting::Nothing);
+  SweepResult r;
+  a.addLine(wallLine(0.9), 0.9);  // its beams reach past the last joint state (0.895 s)
+  EXPECT_FALSE(a.poll(0.9, r));
+  EXPECT_EQ(a.waiting(), Waiting::Joints);
+  pose_known = false;
+  for (const double t : {0.9, 0.905, 0.91, 0.915, 0.92}) a.addJoint(t, triangle(t));
+  EXPECT_FALSE(a.poll(0.92, r));
+  EXPECT_EQ(a.waiting(), Waiting::Pose);
+  pose_known = true;
+  EXPECT_FALSE(a.poll(0.92, r));
+  EXPECT_EQ(a.pending(), 0u);
+  EXPECT_EQ(a.waiting(), Waiting::Nothing);
+  // The joint turns back by less than the hysteresis: the next joint states may end the sweep.
+  a.addJoint(0.925, triangle(0.92) + 0.002);
+  EXPECT_FALSE(a.poll(0.925, r));
+  EXPECT_EQ(a.waiting(), Waiting::Joints);
+}
+
 /// A UTM-30LX scan of 1081 beams over 27 ms, every range 2 m.
 static LineInput fullScan() {
   LineInput in;

@@ -425,6 +425,7 @@ Eigen::Vector3d SweepAssembler::transformBeams(const LineInput& in, const LineMo
 }
 
 bool SweepAssembler::poll(double now, SweepResult& out) {
+  waiting_ = Waiting::Nothing;
   while (!queue_.empty()) {
     const LineInput& in = queue_.front().first;
     const double last_beam = in.stamp + (in.ranges.empty() ? 0.0 : (in.ranges.size() - 1) * in.time_increment);
@@ -444,7 +445,10 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       continue;
     }
     if (joints_.latest() < last_beam) {
-      if (now - queue_.front().second <= p_.max_wait) return false;  // wait for joint states
+      if (now - queue_.front().second <= p_.max_wait) {
+        waiting_ = Waiting::Joints;
+        return false;
+      }
       ++counters_.lines_no_joint;
       warning_ = "no joint states for a scan line within " + std::to_string(p_.max_wait).substr(0, 4) + " s: dropped";
       if (in_sweep_) takeLine(mid, false);
@@ -459,8 +463,10 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
     // the reversal is known, would decide its sweep (a replay differed from
     // the live run by the first line after a reversal).
     if (direction_ != 0 && extreme_t_ <= mid && last_joint_t_ > extreme_t_ &&
-        now - queue_.front().second <= p_.max_wait)
+        now - queue_.front().second <= p_.max_wait) {
+      waiting_ = Waiting::Joints;
       return false;
+    }
     if (in.stamp <= last_line_stamp_ || (in_sweep_ && mid < current_.start)) {
       // Out of order, or late for the sweep it belongs to (already finished): never mixed into the next.
       ++counters_.lines_out_of_order;
@@ -470,7 +476,10 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
     }
     LineMotion motion;
     const PoseStatus pose = lineMotion(in, mid, motion);
-    if (pose == PoseStatus::Wait && now - queue_.front().second <= p_.max_wait) return false;  // wait for tf
+    if (pose == PoseStatus::Wait && now - queue_.front().second <= p_.max_wait) {
+      waiting_ = Waiting::Pose;  // wait for tf
+      return false;
+    }
     if (last_line_stamp_ > -1e299) {
       intervals_[n_intervals_ % intervals_.size()] = in.stamp - last_line_stamp_;
       ++n_intervals_;
@@ -511,6 +520,9 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
     beginSweep(reversals_.front());
     reversals_.pop_front();
   }
+  // The joint has turned back from its extreme: the next joint states may
+  // show the reversal that ends the sweep in progress.
+  if (in_sweep_ && direction_ != 0 && last_joint_t_ > extreme_t_) waiting_ = Waiting::Joints;
   return false;
 }
 

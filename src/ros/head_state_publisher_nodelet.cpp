@@ -14,13 +14,17 @@
 // without, the fixed angles again (the NeckRelay's job, without its joint
 // state messages). Parameters (private): publish_frequency [Hz] (50);
 // hold/joints, hold/fixed_positions [rad], hold/timeout [s], hold/rate [Hz]
-// (config/neck.yaml).
+// (config/neck.yaml). The joint states are taken inline, in the thread that
+// delivers them (the driver's servo loop: no wake-up of another thread 200
+// times a second); onState and the hold timer share a short-held mutex.
 #include <algorithm>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
+#include <boost/make_shared.hpp>
 #include <geometry_msgs/TransformStamped.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -28,10 +32,11 @@
 #include <sensor_msgs/JointState.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/static_transform_broadcaster.h>
-#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_msgs/TFMessage.h>
 #include <urdf/model.h>
 
 #include "tilt_laser_perception/core/joint_hold.hpp"
+#include "tilt_laser_perception/ros/inline_queue.hpp"
 #include "tilt_laser_perception/ros/conversions.hpp"
 
 namespace tilt_laser_perception {
@@ -78,7 +83,11 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
       }
     }
     // Created here, not with the object: a nodelet's ROS set-up belongs in onInit.
-    broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+    // /tf as tf2_ros::TransformBroadcaster sends it, but as a shared message:
+    // a listener in this process takes it as it is (the broadcaster publishes
+    // by reference, so every message was serialized, handed to roscpp's poll
+    // thread and deserialized again); it is serialized only for another process.
+    tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
     static_broadcaster_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
     static_broadcaster_->sendTransform(statics);
     // The held joints (the neck): each with its fixed angle, while nobody gives it.
@@ -100,7 +109,12 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
       }
       held_.push_back(Held{hold[i], fixed[i], core::JointHold(timeout)});
     }
-    sub_ = nh.subscribe("joint_states", 100, &HeadStatePublisherNodelet::onState, this);
+    ros::SubscribeOptions states;
+    states.init<sensor_msgs::JointState>("joint_states", 100,
+                                         boost::bind(&HeadStatePublisherNodelet::onState, this, boost::placeholders::_1));
+    states.callback_queue = &inline_queue_;
+    states.allow_concurrent_callbacks = true;  // serialized by mutex_
+    sub_ = nh.subscribe(states);
     if (!held_.empty())
       hold_timer_ = nh.createTimer(ros::Duration(1.0 / std::max(1.0, rate)), &HeadStatePublisherNodelet::onHold, this);
     NODELET_INFO("%s: %zu fixed transforms published, %zu moving joints followed, %zu held while nobody gives them",
@@ -119,39 +133,54 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     return t;
   }
 
+  // Both callbacks build their message under mutex_ and publish it after
+  // letting go: roscpp holds one lock of its own over every publish in the
+  // process, and onState runs inside the driver's publish (inline), so
+  // publishing with mutex_ held would deadlock against the other callback.
+  void send(const boost::shared_ptr<tf2_msgs::TFMessage>& m) {
+    if (m && !m->transforms.empty()) tf_pub_.publish(m);
+  }
+
   void onHold(const ros::TimerEvent&) {
     const double now = ros::WallTime::now().toSec();
     const ros::Time stamp = ros::Time::now();
-    std::vector<geometry_msgs::TransformStamped> out;
-    for (Held& h : held_) {
-      const bool holding = h.hold.holding(now);
-      if (!h.said || holding != h.holding) {
-        if (holding) NODELET_INFO("%s: nobody gives %s: holding it at %.3f rad", getName().c_str(), h.joint.c_str(), h.position);
-        else NODELET_INFO("%s: %s is given: following it", getName().c_str(), h.joint.c_str());
-        h.said = true;
-        h.holding = holding;
+    auto m = boost::make_shared<tf2_msgs::TFMessage>();
+    {
+      std::lock_guard<std::mutex> l(mutex_);
+      for (Held& h : held_) {
+        const bool holding = h.hold.holding(now);
+        if (!h.said || holding != h.holding) {
+          if (holding) NODELET_INFO("%s: nobody gives %s: holding it at %.3f rad", getName().c_str(), h.joint.c_str(), h.position);
+          else NODELET_INFO("%s: %s is given: following it", getName().c_str(), h.joint.c_str());
+          h.said = true;
+          h.holding = holding;
+        }
+        if (holding) m->transforms.push_back(transform(moving_.at(h.joint), h.position, stamp));
       }
-      if (holding) out.push_back(transform(moving_.at(h.joint), h.position, stamp));
     }
-    if (!out.empty()) broadcaster_->sendTransform(out);
+    send(m);
   }
 
   void onState(const sensor_msgs::JointStateConstPtr& js) {
     if (js->name.size() != js->position.size()) return;
-    out_.clear();
-    for (std::size_t i = 0; i < js->name.size(); ++i) {
-      const auto it = moving_.find(js->name[i]);
-      if (it == moving_.end() || !std::isfinite(js->position[i])) continue;
-      Moving& m = it->second;
-      const ros::Time& stamp = js->header.stamp;
-      if (stamp < m.last) m.last = ros::Time();  // the clock went back (a bag looped): start again
-      if (!m.last.isZero() && stamp < m.last + interval_) continue;
-      m.last = stamp;
-      out_.push_back(transform(m, js->position[i], stamp));
+    boost::shared_ptr<tf2_msgs::TFMessage> m;  // made only when a transform is due (50 of the 200 a second)
+    {
+      std::lock_guard<std::mutex> l(mutex_);
+      for (std::size_t i = 0; i < js->name.size(); ++i) {
+        const auto it = moving_.find(js->name[i]);
+        if (it == moving_.end() || !std::isfinite(js->position[i])) continue;
+        Moving& mv = it->second;
+        const ros::Time& stamp = js->header.stamp;
+        if (stamp < mv.last) mv.last = ros::Time();  // the clock went back (a bag looped): start again
+        if (!mv.last.isZero() && stamp < mv.last + interval_) continue;
+        mv.last = stamp;
+        if (!m) m = boost::make_shared<tf2_msgs::TFMessage>();
+        m->transforms.push_back(transform(mv, js->position[i], stamp));
+      }
+      for (Held& h : held_)
+        if (std::find(js->name.begin(), js->name.end(), h.joint) != js->name.end()) h.hold.seen(ros::WallTime::now().toSec());
     }
-    for (Held& h : held_)
-      if (std::find(js->name.begin(), js->name.end(), h.joint) != js->name.end()) h.hold.seen(ros::WallTime::now().toSec());
-    if (!out_.empty()) broadcaster_->sendTransform(out_);
+    send(m);
   }
 
   struct Held {
@@ -160,12 +189,13 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     core::JointHold hold;
     bool said = false, holding = true;
   };
+  InlineCallbackQueue inline_queue_;  // outlives sub_
+  std::mutex mutex_;                  // moving_, held_: onState against onHold
   std::map<std::string, Moving> moving_;
   std::vector<Held> held_;
   ros::Timer hold_timer_;
   ros::Duration interval_;
-  std::vector<geometry_msgs::TransformStamped> out_;
-  std::unique_ptr<tf2_ros::TransformBroadcaster> broadcaster_;
+  ros::Publisher tf_pub_;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_broadcaster_;
   ros::Subscriber sub_;
 };

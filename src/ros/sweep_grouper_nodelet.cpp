@@ -16,6 +16,9 @@ namespace tilt_laser_perception {
 SweepGrouperNodelet::~SweepGrouperNodelet() {
   poll_timer_.stop();
   diag_timer_.stop();
+  joint_sub_.shutdown();  // no inline call after this (it waits for one in progress)
+  waiting_ = core::SweepAssembler::Waiting::Nothing;
+  if (worker_queue_) worker_queue_->removeByID(reinterpret_cast<uint64_t>(this));
 }
 
 void SweepGrouperNodelet::warn(const std::string& msg) {
@@ -106,7 +109,11 @@ void SweepGrouperNodelet::onInit() {
   if (fuse_) fused_ = std::make_unique<core::FusedHeightMap>(map_params_, fp);
 
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(10.0));
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+  // The listener inserts each transform in the thread that delivers it (the
+  // head's state publisher publishes /tf at 50 Hz a joint): no thread of its own to wake.
+  ros::NodeHandle tf_nh(nh);
+  tf_nh.setCallbackQueue(&tf_queue_);
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, tf_nh, false);
 
   planes_pub_ = nh.advertise<PlanePolygonArray>("planes", 2);
   if (fuse_) terrain_pub_ = nh.advertise<PlanePolygonArray>("terrain_planes", 2, true);
@@ -128,7 +135,18 @@ void SweepGrouperNodelet::onInit() {
   sync_->registerCallback(boost::bind(&SweepGrouperNodelet::onScan, this, boost::placeholders::_1, boost::placeholders::_2));
   scan_sub_ = nh.subscribe("scan", 50, &SweepGrouperNodelet::onScanIn, this);
   segments_sub_ = nh.subscribe("scan_segments", 50, &SweepGrouperNodelet::onSegmentsIn, this);
-  joint_sub_ = nh.subscribe("joint_states", 500, &SweepGrouperNodelet::onJoint, this);
+  worker_queue_ = nh.getCallbackQueue();
+  kick_ = boost::make_shared<TaskCallback>([this] {
+    kicked_ = false;
+    std::lock_guard<std::mutex> l(mutex_);
+    guarded("joint_states", [&] { pollSweeps(); });
+  });
+  ros::SubscribeOptions joints;
+  joints.init<sensor_msgs::JointState>("joint_states", 500,
+                                       boost::bind(&SweepGrouperNodelet::onJointInline, this, boost::placeholders::_1));
+  joints.callback_queue = &joint_queue_;
+  joints.allow_concurrent_callbacks = true;  // onJointInline only takes inbox_mutex_
+  joint_sub_ = nh.subscribe(joints);
   poll_timer_ = nh.createTimer(ros::Duration(0.05), [this](const ros::TimerEvent&) {
     std::lock_guard<std::mutex> l(mutex_);
     guarded("poll", [&] { pollSweeps(); });
@@ -162,31 +180,34 @@ bool SweepGrouperNodelet::setupChain() {
   const auto base_pose = [this](double t, Eigen::Isometry3d& pose) {
     using Status = core::SweepAssembler::PoseStatus;
     if (!(t > 0.0 && t < 4.29e9)) return Status::Missing;  // ros::Time would throw
+    // canTransform first: a line that waits for its pose is asked again and
+    // again, and a failed lookupTransform costs an exception each time.
+    const ros::Time at(t);
     const auto lookup = [&]() {
-      pose = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(t)));
+      if (!tf_buffer_->canTransform(frame_id_, parent_link_, at)) return false;
+      try {
+        pose = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, at));
+        return true;
+      } catch (const tf2::TransformException&) {
+        return false;
+      }
     };
-    try {
-      lookup();
-      return Status::Ok;
-    } catch (const tf2::TransformException&) {
-    }
+    if (lookup()) return Status::Ok;
     // Not yet (the transforms stop short of t: wait for them) or a gap? Once
     // the latest transforms are past t, look again: they may have arrived
     // between the two look-ups.
+    if (!tf_buffer_->canTransform(frame_id_, parent_link_, ros::Time(0))) return Status::Wait;  // none yet (the assembler gives up after max_wait)
     try {
-      if (tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(0)).header.stamp.toSec() < t)
-        return Status::Wait;
+      if (tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(0)).header.stamp < at) return Status::Wait;
     } catch (const tf2::TransformException&) {
-      return Status::Wait;  // no transform at all yet (the assembler gives up after max_wait)
+      return Status::Wait;
     }
-    try {
-      lookup();
-      return Status::Ok;
-    } catch (const tf2::TransformException& e) {
-      NODELET_WARN_THROTTLE(5.0, "SweepGrouper: no pose of %s in %s at %.3f: %s", parent_link_.c_str(),
-                            frame_id_.c_str(), t, e.what());
-      return Status::Missing;
-    }
+    if (lookup()) return Status::Ok;
+    std::string why;
+    tf_buffer_->canTransform(frame_id_, parent_link_, at, &why);
+    NODELET_WARN_THROTTLE(5.0, "SweepGrouper: no pose of %s in %s at %.3f: %s", parent_link_.c_str(), frame_id_.c_str(),
+                          t, why.c_str());
+    return Status::Missing;
   };
   assembler_ = std::make_unique<core::SweepAssembler>(sweep_params_, chain, base_pose);
   chain_ = chain;
@@ -196,36 +217,54 @@ bool SweepGrouperNodelet::setupChain() {
   return true;
 }
 
-void SweepGrouperNodelet::onJoint(const sensor_msgs::JointStateConstPtr& js) {
-  std::lock_guard<std::mutex> l(mutex_);
-  guarded("joint_states", [&] {
-    if (!assembler_ && !setupChain()) {
-      warn(chain_error_);
+void SweepGrouperNodelet::onJointInline(const sensor_msgs::JointStateConstPtr& js) {
+  {
+    std::lock_guard<std::mutex> l(inbox_mutex_);
+    inbox_.push_back(js);
+  }
+  kickIf(core::SweepAssembler::Waiting::Joints);
+}
+
+void SweepGrouperNodelet::kickIf(core::SweepAssembler::Waiting what) {
+  if (waiting_.load(std::memory_order_relaxed) == what && worker_queue_ && !kicked_.exchange(true))
+    worker_queue_->addCallback(kick_, reinterpret_cast<uint64_t>(this));
+}
+
+void SweepGrouperNodelet::drainJoints() {
+  {
+    std::lock_guard<std::mutex> l(inbox_mutex_);
+    inbox_taken_.swap(inbox_);  // both keep their capacity: no allocation once warm
+  }
+  for (const auto& js : inbox_taken_) guarded("joint_states", [&] { addJoint(*js); });
+  inbox_taken_.clear();
+}
+
+void SweepGrouperNodelet::addJoint(const sensor_msgs::JointState& js) {
+  if (!assembler_ && !setupChain()) {
+    warn(chain_error_);
+    return;
+  }
+  // Every field that is read is checked: names and positions pair up, the
+  // stamp is set and near the clock, the tilt's position is a real angle.
+  if (js.name.size() != js.position.size()) {
+    health_.refuse("joint_states: name and position differ in length",
+                   std::to_string(js.name.size()) + " names, " + std::to_string(js.position.size()) + " positions");
+    return;
+  }
+  for (std::size_t i = 0; i < js.name.size(); ++i) {
+    if (js.name[i] != joint_name_) continue;
+    const double t = js.header.stamp.toSec();
+    if (const char* bad = core::checkStamp(t, InputHealth::now(), stamp_limits_)) {
+      health_.refuse(std::string("joint_states: ") + bad, std::to_string(t));
       return;
     }
-    // Every field that is read is checked: names and positions pair up, the
-    // stamp is set and near the clock, the tilt's position is a real angle.
-    if (js->name.size() != js->position.size()) {
-      health_.refuse("joint_states: name and position differ in length",
-                     std::to_string(js->name.size()) + " names, " + std::to_string(js->position.size()) + " positions");
+    if (const char* bad = core::checkJointPosition(js.position[i])) {
+      health_.refuse(std::string("joint_states: ") + bad, std::to_string(js.position[i]));
       return;
     }
-    for (std::size_t i = 0; i < js->name.size(); ++i) {
-      if (js->name[i] != joint_name_) continue;
-      const double t = js->header.stamp.toSec();
-      if (const char* bad = core::checkStamp(t, InputHealth::now(), stamp_limits_)) {
-        health_.refuse(std::string("joint_states: ") + bad, std::to_string(t));
-        return;
-      }
-      if (const char* bad = core::checkJointPosition(js->position[i])) {
-        health_.refuse(std::string("joint_states: ") + bad, std::to_string(js->position[i]));
-        return;
-      }
-      assembler_->addJoint(t, js->position[i]);
-      if (watch_) watch_->addJoint(t, js->position[i]);
-    }
-    pollSweeps();
-  });
+    assembler_->addJoint(t, js.position[i]);
+    if (watch_) watch_->addJoint(t, js.position[i]);
+  }
 }
 
 void SweepGrouperNodelet::onScanIn(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
@@ -317,9 +356,11 @@ void SweepGrouperNodelet::takeAssemblerCounts() {
 }
 
 void SweepGrouperNodelet::pollSweeps() {
+  drainJoints();
   if (!assembler_) return;
   core::SweepResult sweep;
   while (assembler_->poll(ros::Time::now().toSec(), sweep)) publish(sweep);
+  waiting_ = assembler_->waiting();
   takeAssemblerCounts();  // anything dropped (or a restart) since the last look: counted, a throttled warning
 }
 

@@ -137,6 +137,11 @@ class SweepAssembler {
   const SweepCounters& counters() const { return counters_; }
   /// Lines waiting for joint states.
   std::size_t pending() const { return queue_.size(); }
+  /// What the first waiting line waits for after the last poll (Nothing when
+  /// none waits): a caller that is told of new joint states or new poses
+  /// polls again only when they may let it go.
+  enum class Waiting { Nothing, Joints, Pose };
+  Waiting waiting() const { return waiting_; }
   /// Lines in the sweep being assembled.
   std::size_t linesInSweep() const { return in_sweep_ ? current_.lines.size() : 0; }
   /// The last warning (why a line or sweep was dropped), for throttled logs.
@@ -154,6 +159,7 @@ class SweepAssembler {
   /// The base's pose at the line's first and last beam (one look-up at its
   /// middle when per_beam is off): Ok, Wait or Missing, the worst of the two.
   PoseStatus lineMotion(const LineInput& in, double mid, LineMotion& motion) const;
+  Waiting waiting_ = Waiting::Nothing;
   bool process(const LineInput& in, const LineMotion& motion);
   /// The clock went back (a recording looped, a simulation restarted): forget
   /// the joints, queued lines and the sweep in progress.

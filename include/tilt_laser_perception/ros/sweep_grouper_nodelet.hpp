@@ -8,11 +8,13 @@
  */
 #pragma once
 
+#include <atomic>
 #include <future>
 
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <message_filters/time_synchronizer.h>
@@ -29,6 +31,7 @@
 #include "tilt_laser_perception/core/height_map.hpp"
 #include "tilt_laser_perception/core/sequence.hpp"
 #include "tilt_laser_perception/core/sweep.hpp"
+#include "tilt_laser_perception/ros/inline_queue.hpp"
 #include "tilt_laser_perception/ros/input_health.hpp"
 
 namespace tilt_laser_perception {
@@ -43,7 +46,12 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   /// Entry points: every field checked, a bad message dropped and counted by reason.
   void onScanIn(const ros::MessageEvent<sensor_msgs::LaserScan const>& event);
   void onSegmentsIn(const ScanSegmentsConstPtr& segments);
-  void onJoint(const sensor_msgs::JointStateConstPtr& js);
+  /// Joint states (200 Hz) arrive inline, in the publisher's thread: put in
+  /// the inbox, nothing more; a worker wakes for them only while a line waits.
+  void onJointInline(const sensor_msgs::JointStateConstPtr& js);
+  /// The inbox into the assembler (called with mutex_ held).
+  void drainJoints();
+  void addJoint(const sensor_msgs::JointState& js);
   /// A scan and its split, paired by the synchronizer (called with mutex_ held).
   void onScan(const sensor_msgs::LaserScanConstPtr& scan, const ScanSegmentsConstPtr& segments);
   /// Runs f; an exception it throws is counted and warned about, never let out of a callback.
@@ -60,6 +68,17 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   void warn(const std::string& msg);
 
   std::mutex mutex_;
+  // Declared before the subscriptions and the tf listener that use them: they outlive them.
+  /// Wakes the worker (pollSweeps) once if the first waiting line waits for this kind of input.
+  void kickIf(core::SweepAssembler::Waiting what);
+  InlineCallbackQueue joint_queue_;
+  InlineCallbackQueue tf_queue_{[this] { kickIf(core::SweepAssembler::Waiting::Pose); }};
+  std::mutex inbox_mutex_;  // held only to push or swap: never while grouping or publishing
+  std::vector<sensor_msgs::JointStateConstPtr> inbox_, inbox_taken_;
+  std::atomic<core::SweepAssembler::Waiting> waiting_{core::SweepAssembler::Waiting::Nothing};
+  std::atomic<bool> kicked_{false};
+  ros::CallbackQueueInterface* worker_queue_ = nullptr;  // the nodelet's own
+  ros::CallbackInterfacePtr kick_;  // pollSweeps on the worker
   std::unique_ptr<core::SweepAssembler> assembler_;
   InputHealth health_;  // refused inputs by reason, sequence gaps per publisher, loads
   core::SweepCounters counted_;  // the assembler's counters as last taken into health_
