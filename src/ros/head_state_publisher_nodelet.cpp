@@ -36,8 +36,8 @@
 #include <urdf/model.h>
 
 #include "tilt_laser_perception/core/joint_hold.hpp"
-#include "tilt_laser_perception/ros/inline_queue.hpp"
 #include "tilt_laser_perception/ros/conversions.hpp"
+#include "tilt_laser_perception/ros/inline_queue.hpp"
 
 namespace tilt_laser_perception {
 

@@ -8,7 +8,10 @@
 // thread roscpp reads it on. Give it only to callbacks that are short and
 // thread-safe (they may run in several threads at once and must not block on
 // a lock held for long): here, a callback that puts the message in an inbox,
-// and the tf listener's insert into its buffer.
+// and the tf listener's insert into its buffer. roscpp holds one lock of its
+// own over every publish in the process, and an in-process message's
+// callbacks run inside that publish: an inline callback must not wait for a
+// lock that another thread holds while it publishes.
 //
 // TaskCallback is one job for an ordinary callback queue (the nodelet's own:
 // run by its worker like any of its callbacks).
@@ -23,10 +26,6 @@
 
 namespace tilt_laser_perception {
 
-//
-// roscpp holds one lock of its own over every publish in the process, and an
-// in-process message's callbacks run inside that publish: an inline callback
-// must not wait for a lock that another thread holds while it publishes.
 class InlineCallbackQueue : public ros::CallbackQueueInterface {
  public:
   /// after: run after each callback (e.g. to wake a worker that waits for this input).

@@ -49,6 +49,8 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   /// Joint states (200 Hz) arrive inline, in the publisher's thread: put in
   /// the inbox, nothing more; a worker wakes for them only while a line waits.
   void onJointInline(const sensor_msgs::JointStateConstPtr& js);
+  /// Wakes the worker (pollSweeps) once if the first waiting line waits for this kind of input.
+  void kickIf(core::SweepAssembler::Waiting what);
   /// The inbox into the assembler (called with mutex_ held).
   void drainJoints();
   void addJoint(const sensor_msgs::JointState& js);
@@ -69,9 +71,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
 
   std::mutex mutex_;
   // Declared before the subscriptions and the tf listener that use them: they outlive them.
-  /// Wakes the worker (pollSweeps) once if the first waiting line waits for this kind of input.
-  void kickIf(core::SweepAssembler::Waiting what);
-  InlineCallbackQueue joint_queue_;
+  InlineCallbackQueue joint_queue_{[this] { kickIf(core::SweepAssembler::Waiting::Joints); }};
   InlineCallbackQueue tf_queue_{[this] { kickIf(core::SweepAssembler::Waiting::Pose); }};
   std::mutex inbox_mutex_;  // held only to push or swap: never while grouping or publishing
   std::vector<sensor_msgs::JointStateConstPtr> inbox_, inbox_taken_;
