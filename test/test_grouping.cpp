@@ -896,6 +896,19 @@ TEST(SweepAssembler, EveryBeamAtItsOwnTiltExactly) {
   EXPECT_LT(worst, 2e-6);  // float storage of the points: ~1e-7 m
 }
 
+TEST(SweepAssembler, ASweepsLastBeamIsTheLatestTimeItsLinesHadPosesFor) {
+  // The grouper looks up the robot's pose for the fused map there, not at the
+  // reversal after it, which a live run may not have in tf yet.
+  SweepAssembler a(shortSweeps(), TiltChain());
+  SweepResult r;
+  ASSERT_TRUE(oneSweep(a, fullScan(), r));
+  EXPECT_NEAR(r.lines.back().stamp, 1.961, 1e-9);  // the last line whose middle is before the reversal at 2 s
+  EXPECT_NEAR(lastBeamTime(r), 1.961 + 1080 * 0.000025, 1e-9);
+  EXPECT_LT(lastBeamTime(r), r.end);
+  r.lines.clear();
+  EXPECT_EQ(lastBeamTime(r), r.end);
+}
+
 TEST(SweepAssembler, AWalkingBaseMovesEveryBeamToItsOwnTime) {
   // The base walks at 0.3 m/s, turns at 0.25 rad/s and bobs 1 cm at a step
   // of 0.8 s while the joint turns at 1 rad/s: each point is where the

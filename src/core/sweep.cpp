@@ -532,6 +532,12 @@ Eigen::Vector3d meanOrigin(const SweepResult& sweep) {
   return sweep.lines.empty() ? o : Eigen::Vector3d(o / static_cast<double>(sweep.lines.size()));
 }
 
+double lastBeamTime(const SweepResult& sweep) {
+  if (sweep.lines.empty()) return sweep.end;
+  const SweepLine& l = sweep.lines.back();
+  return l.stamp + (l.points.empty() ? 0.0 : (l.points.size() - 1) * l.time_increment);
+}
+
 void transformSweep(SweepResult& sw, const Eigen::Isometry3d& T) {
   const Eigen::Isometry3f Tf = T.cast<float>();
   for (SweepLine& line : sw.lines) {

@@ -108,6 +108,13 @@ void SweepGrouperNodelet::onInit() {
   map_params_.height = static_cast<int>(std::lround(size_y / map_params_.resolution));
   if (fuse_) fused_ = std::make_unique<core::FusedHeightMap>(map_params_, fp);
 
+  // Set before anything that may call kickIf (the inline queues' hooks).
+  kick_ = boost::make_shared<TaskCallback>([this] {
+    kicked_ = false;
+    std::lock_guard<std::mutex> l(mutex_);
+    guarded("poll", [&] { pollSweeps(); });
+  });
+  worker_queue_ = nh.getCallbackQueue();
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(10.0));
   // The listener inserts each transform in the thread that delivers it (the
   // head's state publisher publishes /tf at 50 Hz a joint): no thread of its own to wake.
@@ -135,12 +142,6 @@ void SweepGrouperNodelet::onInit() {
   sync_->registerCallback(boost::bind(&SweepGrouperNodelet::onScan, this, boost::placeholders::_1, boost::placeholders::_2));
   scan_sub_ = nh.subscribe("scan", 50, &SweepGrouperNodelet::onScanIn, this);
   segments_sub_ = nh.subscribe("scan_segments", 50, &SweepGrouperNodelet::onSegmentsIn, this);
-  worker_queue_ = nh.getCallbackQueue();
-  kick_ = boost::make_shared<TaskCallback>([this] {
-    kicked_ = false;
-    std::lock_guard<std::mutex> l(mutex_);
-    guarded("joint_states", [&] { pollSweeps(); });
-  });
   ros::SubscribeOptions joints;
   joints.init<sensor_msgs::JointState>("joint_states", 500,
                                        boost::bind(&SweepGrouperNodelet::onJointInline, this, boost::placeholders::_1));
@@ -196,11 +197,10 @@ bool SweepGrouperNodelet::setupChain() {
     // Not yet (the transforms stop short of t: wait for them) or a gap? Once
     // the latest transforms are past t, look again: they may have arrived
     // between the two look-ups.
-    if (!tf_buffer_->canTransform(frame_id_, parent_link_, ros::Time(0))) return Status::Wait;  // none yet (the assembler gives up after max_wait)
     try {
       if (tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(0)).header.stamp < at) return Status::Wait;
     } catch (const tf2::TransformException&) {
-      return Status::Wait;
+      return Status::Wait;  // no transform at all yet (the assembler gives up after max_wait)
     }
     if (lookup()) return Status::Ok;
     std::string why;
@@ -218,11 +218,8 @@ bool SweepGrouperNodelet::setupChain() {
 }
 
 void SweepGrouperNodelet::onJointInline(const sensor_msgs::JointStateConstPtr& js) {
-  {
-    std::lock_guard<std::mutex> l(inbox_mutex_);
-    inbox_.push_back(js);
-  }
-  kickIf(core::SweepAssembler::Waiting::Joints);
+  std::lock_guard<std::mutex> l(inbox_mutex_);
+  inbox_.push_back(js);  // joint_queue_ then wakes the worker if a line waits for it
 }
 
 void SweepGrouperNodelet::kickIf(core::SweepAssembler::Waiting what) {
@@ -372,15 +369,19 @@ void SweepGrouperNodelet::fuseSweep(const core::SweepResult& sweep) {
     travelled_ = 0.0;
   }
   last_fused_ = sweep.end;
+  // Where the robot was at the sweep's last beam: a pose the sweep's lines
+  // have waited for, so live and replayed runs find it alike.
   try {
     const Eigen::Vector2d xy =
-        tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, robot_frame_, ros::Time(sweep.end))).translation().head<2>();
+        tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, robot_frame_, ros::Time(core::lastBeamTime(sweep))))
+            .translation()
+            .head<2>();
     if (robot_known_) travelled_ += (xy - robot_xy_).norm();
     robot_xy_ = xy;
     robot_known_ = true;
   } catch (const tf2::TransformException& e) {
     // The map stays where it was (its cells are still right in the fixed frame).
-    warn("no pose of ~robot_frame '" + robot_frame_ + "' in '" + frame_id_ + "' at the sweep's end: the fused map stays where it was (" +
+    warn("no pose of ~robot_frame '" + robot_frame_ + "' in '" + frame_id_ + "' at the sweep's last beam: the fused map stays where it was (" +
          e.what() + ")");
   }
   fused_->recentre(robot_xy_.x(), robot_xy_.y());
@@ -446,10 +447,10 @@ void SweepGrouperNodelet::checkCalibration(const core::SweepResult* sweep) {
     if (calibration_drifted_) warn(calibration_message_);
   }
   if (!sweep) return;
-  // The standing robot's base: the chain's base in the frame at the sweep's end.
+  // The standing robot's base: the chain's base in the frame at the sweep's last beam.
   Eigen::Isometry3d base;
   try {
-    base = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(sweep->end)));
+    base = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(core::lastBeamTime(*sweep))));
   } catch (const tf2::TransformException&) {
     return;
   }

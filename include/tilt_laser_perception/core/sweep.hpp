@@ -211,6 +211,11 @@ class SweepAssembler {
 /// Where the laser was during a sweep: the mean of its lines' origins (zero without lines).
 Eigen::Vector3d meanOrigin(const SweepResult& sweep);
 
+/// The time of the last beam of a sweep's last line (its end without lines):
+/// the latest time the assembler had the base's pose for. Its end, the
+/// reversal, may lie later, where a live run may not have the pose yet.
+double lastBeamTime(const SweepResult& sweep);
+
 /// Moves a finished sweep rigidly (points, origins, segments, planes and their
 /// polygons): p -> T p. What a tool that puts a whole sweep in the world with
 /// one pose does (evaluate --no-pose), and how a sweep changes frame.
