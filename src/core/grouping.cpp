@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <sstream>
 
 namespace tilt_laser_perception {
@@ -928,18 +927,25 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
     }
     return Eigen::Vector3d(x - dist * f.normal);
   };
-  // Members by line, each line's members by beam.
-  std::map<int, std::vector<const Segment3*>> lines;
-  for (int m : r.members) lines[segs_[m].line].push_back(&segs_[m]);
-  for (auto& kv : lines)
-    std::sort(kv.second.begin(), kv.second.end(), [](const Segment3* a, const Segment3* b) { return a->first < b->first; });
+  // Members are segment indices in increasing order: line by line, each
+  // line's in beam order; lineEnd(k) is where the line of members[k] ends.
+  const std::vector<int>& mem = r.members;
+  const auto lineEnd = [&](std::size_t k) {
+    std::size_t e = k + 1;
+    while (e < mem.size() && segs_[mem[e]].line == segs_[mem[k]].line) ++e;
+    return e;
+  };
   // Outer boundary: where each line enters the plane, then back along where it leaves.
   std::vector<Eigen::Vector3d> left, right;
-  for (const auto& kv : lines) {
-    left.push_back(onPlane(kv.second.front()->start, kv.second.front()->origin));
-    right.push_back(onPlane(kv.second.back()->end, kv.second.back()->origin));
+  left.reserve(r.lines);
+  right.reserve(r.lines);
+  for (std::size_t k = 0; k < mem.size(); k = lineEnd(k)) {
+    const Segment3& first = segs_[mem[k]];
+    const Segment3& last = segs_[mem[lineEnd(k) - 1]];
+    left.push_back(onPlane(first.start, first.origin));
+    right.push_back(onPlane(last.end, last.origin));
   }
-  out.boundary = left;
+  out.boundary = std::move(left);
   out.boundary.insert(out.boundary.end(), right.rbegin(), right.rend());
   double area = polygonArea(out.boundary, f);
   // Holes: gaps inside lines, chained across lines while they overlap in beam index.
@@ -948,16 +954,19 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
     Eigen::Vector3d a, b;
   };
   std::vector<std::vector<Gap>> chains;
-  std::vector<int> open_chains;
-  for (const auto& kv : lines) {
-    std::vector<int> next_open;
-    const auto& segs = kv.second;
-    for (std::size_t i = 0; i + 1 < segs.size(); ++i) {
-      Gap g{kv.first, segs[i]->last, segs[i + 1]->first, onPlane(segs[i]->end, segs[i]->origin), onPlane(segs[i + 1]->start, segs[i + 1]->origin)};
+  std::vector<int> open_chains, next_open;
+  for (std::size_t k = 0; k < mem.size();) {
+    const std::size_t e = lineEnd(k);
+    const int line = segs_[mem[k]].line;
+    next_open.clear();
+    for (std::size_t i = k; i + 1 < e; ++i) {
+      const Segment3& a = segs_[mem[i]];
+      const Segment3& b = segs_[mem[i + 1]];
+      Gap g{line, a.last, b.first, onPlane(a.end, a.origin), onPlane(b.start, b.origin)};
       int chain = -1;
       for (int c : open_chains) {
         const Gap& prev = chains[c].back();
-        if (prev.line >= kv.first - p_.max_line_gap && prev.first <= g.last && g.first <= prev.last) {
+        if (prev.line >= line - p_.max_line_gap && prev.first <= g.last && g.first <= prev.last) {
           chain = c;
           break;
         }
@@ -971,9 +980,10 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
     }
     for (int c : open_chains)
       if (std::find(next_open.begin(), next_open.end(), c) == next_open.end() &&
-          chains[c].back().line >= kv.first - p_.max_line_gap)
+          chains[c].back().line >= line - p_.max_line_gap)
         next_open.push_back(c);
-    open_chains = next_open;
+    std::swap(open_chains, next_open);
+    k = e;
   }
   for (const auto& c : chains) {
     if (c.size() < 2) continue;  // a slit in one line: no hole
