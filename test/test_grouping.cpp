@@ -909,6 +909,27 @@ TEST(SweepAssembler, ASweepsLastBeamIsTheLatestTimeItsLinesHadPosesFor) {
   EXPECT_EQ(lastBeamTime(r), r.end);
 }
 
+TEST(SweepAssembler, KnowsTheSpanOfEachLinesReturns) {
+  // The rear beams of a 270-degree scan often see nothing: the height map
+  // does not load those points at all.
+  SweepAssembler a(shortSweeps(), TiltChain());
+  LineInput in = fullScan();
+  in.range_min = 0.1;
+  for (int i = 0; i < 120; ++i) in.ranges[i] = std::numeric_limits<float>::quiet_NaN();
+  for (int i = 1000; i < 1081; ++i) in.ranges[i] = (i % 2) ? 0.0f : 40.0f;  // under range_min, over range_max
+  in.ranges[500] = std::numeric_limits<float>::quiet_NaN();                   // a hole inside stays inside
+  SweepResult r;
+  ASSERT_TRUE(oneSweep(a, in, r));
+  for (const SweepLine& l : r.lines) {
+    EXPECT_EQ(l.returns_begin, 120);
+    EXPECT_EQ(l.returns_end, 1000);
+    EXPECT_TRUE(l.points[119].hasNaN() && l.points[120].allFinite() && l.points[999].allFinite() &&
+                l.points[1000].hasNaN());
+  }
+  EXPECT_EQ(SweepLine().returns_begin, 0);  // a line made elsewhere: the whole line
+  EXPECT_GT(SweepLine().returns_end, 100000);
+}
+
 TEST(SweepAssembler, AWalkingBaseMovesEveryBeamToItsOwnTime) {
   // The base walks at 0.3 m/s, turns at 0.25 rad/s and bobs 1 cm at a step
   // of 0.8 s while the joint turns at 1 rad/s: each point is where the

@@ -183,7 +183,9 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       if (ei < edges.size() && edges[ei].first == i && edges[ei].second == EdgeKind::Veil) return;
       mark(pts[i], nullptr);
     };
-    int cursor = 0;
+    // Beams outside the line's returns are not looked at (no point to load).
+    const int end = std::min(static_cast<int>(pts.size()), sweep.lines[li].returns_end);
+    int cursor = std::max(0, sweep.lines[li].returns_begin);
     for (; si < sweep.segments.size() && sweep.segments[si].line == static_cast<int>(li); ++si) {
       const Segment3& s = sweep.segments[si];
       const int pid = sweep.segment_plane[si];
@@ -207,7 +209,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       }
       cursor = std::max(cursor, s.last + 1);
     }
-    for (int i = cursor; i < static_cast<int>(pts.size()); ++i) markLoose(i);
+    for (int i = cursor; i < end; ++i) markLoose(i);
   }
 }
 

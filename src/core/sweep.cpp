@@ -415,11 +415,18 @@ Eigen::Vector3d SweepAssembler::transformBeams(const LineInput& in, const LineMo
     }
   }
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  int first = static_cast<int>(n), last = -1;
   for (std::size_t i = 0; i < n; ++i) {
     const double r = in.ranges[i];
     const bool valid = std::isfinite(r) && r >= in.range_min && r <= in.range_max;
     line.points[i] = valid ? Eigen::Vector3f(px_[i], py_[i], pz_[i]) : Eigen::Vector3f(nan, nan, nan);
+    if (valid) {
+      first = std::min(first, static_cast<int>(i));
+      last = static_cast<int>(i);
+    }
   }
+  line.returns_begin = first;
+  line.returns_end = last + 1;
   // The laser's origin (v = j) at the middle beam.
   return o_laser;
 }

@@ -75,6 +75,10 @@ struct SweepLine {
   std::vector<float> tilt;         ///< joint angle at each beam [rad]
   std::vector<std::pair<int, EdgeKind>> edges;
   Eigen::Vector3f origin = Eigen::Vector3f::Zero();  ///< where the laser was at the middle beam [m]
+  /// Beams before returns_begin and from returns_end on have no return (a
+  /// 270-degree scan's rear beams often see nothing): passes over the line's
+  /// loose points skip them. The defaults say nothing (the whole line).
+  int returns_begin = 0, returns_end = std::numeric_limits<int>::max();
 };
 
 /// A finished sweep.
