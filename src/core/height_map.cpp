@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace tilt_laser_perception {
@@ -15,13 +16,21 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     // The last map of this size is still there: every cell it wrote lies in
     // its box, so clearing the box is clearing the map (for a 6 m map of 1 cm
     // cells, a fraction of its 360,000 cells).
-    for (int iy = std::max(0, out.box_y0); iy <= std::min(out.box_y1, p.height - 1); ++iy) {
-      const int x0 = std::max(0, out.box_x0), x1 = std::min(out.box_x1, p.width - 1);
-      if (x1 < x0) break;
-      const std::size_t c0 = out.index(x0, iy), c1 = out.index(x1, iy) + 1;
-      std::fill(out.heights.begin() + c0, out.heights.begin() + c1, nan);
-      std::fill(out.plane_ids.begin() + c0, out.plane_ids.begin() + c1, -1);
-      std::fill(out.classes.begin() + c0, out.classes.begin() + c1, CellClass::Unknown);
+    // The box's first row is filled, the others copied from it (a float
+    // fill is a scalar loop; a copy is the C library's wide one).
+    const int x0 = std::max(0, out.box_x0), x1 = std::min(out.box_x1, p.width - 1);
+    const int y0 = std::max(0, out.box_y0), y1 = std::min(out.box_y1, p.height - 1);
+    if (x1 >= x0 && y1 >= y0) {
+      const std::size_t n = static_cast<std::size_t>(x1 - x0 + 1), first = out.index(x0, y0);
+      std::fill_n(out.heights.begin() + first, n, nan);
+      std::fill_n(out.plane_ids.begin() + first, n, -1);
+      std::fill_n(out.classes.begin() + first, n, CellClass::Unknown);
+      for (int iy = y0 + 1; iy <= y1; ++iy) {
+        const std::size_t c = out.index(x0, iy);
+        std::memcpy(&out.heights[c], &out.heights[first], n * sizeof(float));
+        std::memcpy(&out.plane_ids[c], &out.plane_ids[first], n * sizeof(std::int32_t));
+        std::memcpy(&out.classes[c], &out.classes[first], n * sizeof(CellClass));
+      }
     }
   } else {
     out.heights.assign(cells, nan);
