@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace tilt_laser_perception {
@@ -431,6 +432,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
   // took it. Give each boundary segment to the neighbouring plane it lies
   // nearer to, if that plane accepts it.
   bool moved = false;
+  std::vector<std::size_t> pos;  // per region: where the last segment looked up stands in its members
   for (std::size_t si = 0; si < segs_.size(); ++si) {
     const int ri = seg_region_[si];
     if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3 || moved_once[si]) continue;
@@ -440,7 +442,15 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     // lies beside it (a floor's edge along a step is in the middle of the
     // floor's lines).
     // Members are sorted by index, so by line: its neighbours are next to it.
-    const auto at = std::lower_bound(own.members.begin(), own.members.end(), static_cast<int>(si));
+    // Segments come in index order: its place is most often right after the
+    // last one looked up in its region (checked; else searched).
+    if (pos.size() < regions_.size()) pos.resize(regions_.size(), 0);
+    std::size_t& k = pos[ri];
+    if (!(k + 1 < own.members.size() && own.members[k + 1] == static_cast<int>(si)))
+      k = std::lower_bound(own.members.begin(), own.members.end(), static_cast<int>(si)) - own.members.begin();
+    else
+      ++k;
+    const auto at = own.members.begin() + k;
     bool before = false, after = false;
     for (auto mi = at; mi != own.members.begin() && !before;) {
       const Segment3& m = segs_[*--mi];
@@ -698,6 +708,12 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     }
     others.push_back(x);
   }
+  // Segments come line by line: each line's first segment, found in this
+  // short list rather than among the segments.
+  std::vector<std::pair<int, int>> line_first;  // (line, its first segment), and (end, size) last
+  for (std::size_t i = 0; i < segs_.size(); ++i)
+    if (i == 0 || segs_[i].line != segs_[i - 1].line) line_first.emplace_back(segs_[i].line, static_cast<int>(i));
+  line_first.emplace_back(std::numeric_limits<int>::max(), static_cast<int>(segs_.size()));
   for (std::size_t si = 0; si < segs_.size(); ++si) {
     const int ri = seg_region_[si];
     if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 2) continue;
@@ -817,9 +833,9 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     // gentle a bend for the split). That plane is tried as the other one; a
     // run beside kMinLoneCover of the lone segment or more seeds it.
     for (int dl : {-1, 1}) {
-      auto it = std::lower_bound(segs_.begin(), segs_.end(), s.line + dl,
-                                 [](const Segment3& t, int line) { return t.line < line; });
-      for (; it != segs_.end() && it->line == s.line + dl; ++it) {
+      const auto lf = std::lower_bound(line_first.begin(), line_first.end() - 1, std::make_pair(s.line + dl, 0));
+      if (lf == line_first.end() - 1 || lf->first != s.line + dl) continue;
+      for (auto it = segs_.begin() + lf->second; it != segs_.begin() + (lf + 1)->second; ++it) {
         const Segment3& t = *it;
         const int rt = seg_region_[it - segs_.begin()];
         if (rt < 0 || regions_[rt].dead || regions_[rt].members.size() != 1 || t.moments.n < 2 * p_.min_points)
