@@ -4,8 +4,17 @@
 //   compare_pcl [--scene stairs] [--sweeps 6] [--seed 1] [--speed 1.0]
 // Prints one summary line per method (evaluate's key=value format) and the
 // time each takes per sweep. Built only where PCL is installed (libpcl-dev).
+//   compare_pcl --organized N [--scene stairs] [--seed 1]
+// Times segment_cloud's split and grouping (core::segmentOrganized) and PCL's
+// normals and segmentation on one N x N organized cloud of the scene (a range
+// image from the head, rows of equal elevation), the median of 7 runs each,
+// and prints their ratio.
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -13,6 +22,9 @@
 #include <pcl/point_types.h>
 #include <pcl/segmentation/organized_multi_plane_segmentation.h>
 
+#include "tilt_laser_perception/core/polyline_split.hpp"
+#include "tilt_laser_perception/sim/head.hpp"
+#include "tilt_laser_perception/sim/scene.hpp"
 #include "tilt_laser_perception/sim/scene_eval.hpp"
 
 namespace tlp = tilt_laser_perception;
@@ -36,19 +48,9 @@ Eigen::Vector3f toCamera(const Eigen::Vector3f& p, const Eigen::Vector3f& head) 
 }
 Eigen::Vector3d fromCamera(const Eigen::Vector3d& v) { return Eigen::Vector3d(v.z(), -v.x(), -v.y()); }
 
-void pclSegment(const PclSettings& ps, const Eigen::Vector3f& head, const tlp::core::SweepResult& sw,
-                std::vector<std::vector<int>>& labels, std::vector<tlp::core::Plane>& planes) {
-  const std::size_t rows = sw.lines.size(), cols = rows ? sw.lines[0].points.size() : 0;
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  cloud->width = static_cast<std::uint32_t>(cols);
-  cloud->height = static_cast<std::uint32_t>(rows);
-  cloud->is_dense = false;
-  cloud->points.resize(rows * cols);
-  for (std::size_t r = 0; r < rows; ++r)
-    for (std::size_t c = 0; c < cols && c < sw.lines[r].points.size(); ++c) {
-      const Eigen::Vector3f p = toCamera(sw.lines[r].points[c], head);
-      cloud->points[r * cols + c] = pcl::PointXYZ(p.x(), p.y(), p.z());  // NaN where no return
-    }
+/// PCL's normals and segmentation of an organized cloud (camera frame).
+void pclPlanes(const PclSettings& ps, const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud,
+               std::vector<pcl::ModelCoefficients>& coefficients, std::vector<pcl::PointIndices>& inliers) {
   pcl::PointCloud<pcl::Normal>::Ptr normals(new pcl::PointCloud<pcl::Normal>);
   pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
   ne.setNormalEstimationMethod(ne.COVARIANCE_MATRIX);
@@ -62,9 +64,25 @@ void pclSegment(const PclSettings& ps, const Eigen::Vector3f& head, const tlp::c
   mps.setDistanceThreshold(ps.distance);
   mps.setInputNormals(normals);
   mps.setInputCloud(cloud);
+  mps.segment(coefficients, inliers);
+}
+
+void pclSegment(const PclSettings& ps, const Eigen::Vector3f& head, const tlp::core::SweepResult& sw,
+                std::vector<std::vector<int>>& labels, std::vector<tlp::core::Plane>& planes) {
+  const std::size_t rows = sw.lines.size(), cols = rows ? sw.lines[0].points.size() : 0;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->width = static_cast<std::uint32_t>(cols);
+  cloud->height = static_cast<std::uint32_t>(rows);
+  cloud->is_dense = false;
+  cloud->points.resize(rows * cols);
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t c = 0; c < cols && c < sw.lines[r].points.size(); ++c) {
+      const Eigen::Vector3f p = toCamera(sw.lines[r].points[c], head);
+      cloud->points[r * cols + c] = pcl::PointXYZ(p.x(), p.y(), p.z());  // NaN where no return
+    }
   std::vector<pcl::ModelCoefficients> coefficients;
   std::vector<pcl::PointIndices> inliers;
-  mps.segment(coefficients, inliers);
+  pclPlanes(ps, cloud, coefficients, inliers);
   for (std::size_t k = 0; k < inliers.size(); ++k) {
     tlp::core::Plane pl;
     pl.id = static_cast<int>(k);
@@ -84,15 +102,89 @@ void pclSegment(const PclSettings& ps, const Eigen::Vector3f& head, const tlp::c
                    pl.fit.centroid.x(), pl.fit.centroid.y(), pl.fit.centroid.z());
   }
 }
+double medianMs(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : 1e3 * v[v.size() / 2];
+}
+
+/// An n x n range image of the scene from the head: rows of equal elevation
+/// (10 to 60 degrees down, the tilt's range), columns of equal azimuth (+-60
+/// degrees), 1 cm range noise (the UTM-30LX's within 10 m).
+std::vector<Eigen::Vector3f> rangeImage(const tlp::sim::Scene& scene, const Eigen::Vector3d& head, int n,
+                                        std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::vector<Eigen::Vector3f> pts(static_cast<std::size_t>(n) * n);
+  for (int r = 0; r < n; ++r) {
+    const double el = (10.0 + 50.0 * r / (n - 1)) * M_PI / 180.0;
+    for (int c = 0; c < n; ++c) {
+      const double az = (60.0 - 120.0 * c / (n - 1)) * M_PI / 180.0;
+      const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), -std::sin(el));
+      tlp::sim::Hit hit;
+      Eigen::Vector3f& p = pts[static_cast<std::size_t>(r) * n + c];
+      p.setConstant(std::numeric_limits<float>::quiet_NaN());  // no return
+      if (scene.raycast(head, dir, 30.0, hit)) p = (head + (hit.t + noise(rng)) * dir).cast<float>();
+    }
+  }
+  return pts;
+}
+
+int organized(const std::string& scene_name, int n, std::uint64_t seed, const PclSettings& ps) {
+  const tlp::sim::Scene scene = tlp::sim::loadScene(scene_name);
+  const Eigen::Vector3d head = tlp::sim::HeadGeometry::load(tlp::sim::configDirectory() + "/head.yaml").axis_origin;
+  const std::vector<Eigen::Vector3f> pts = rangeImage(scene, head, n, seed);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->width = cloud->height = static_cast<std::uint32_t>(n);
+  cloud->is_dense = false;
+  cloud->points.resize(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const Eigen::Vector3f p = toCamera(pts[i], head.cast<float>());
+    cloud->points[i] = pcl::PointXYZ(p.x(), p.y(), p.z());
+  }
+  const auto now = [] { return std::chrono::steady_clock::now(); };
+  const auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
+  std::vector<double> ours_s, pcl_s;
+  std::size_t our_planes = 0, pcl_planes = 0, our_pts = 0, pcl_pts = 0;
+  for (int run = 0; run < 7; ++run) {
+    std::vector<tlp::core::Plane> planes;
+    std::vector<std::uint32_t> labels;
+    const auto t0 = now();
+    tlp::core::segmentOrganized(pts, n, n, true, head, tlp::core::SplitParams(), tlp::core::GroupingParams(), planes,
+                                labels);
+    ours_s.push_back(secs(t0, now()));
+    our_planes = planes.size();
+    our_pts = static_cast<std::size_t>(std::count_if(labels.begin(), labels.end(), [](std::uint32_t l) { return l; }));
+    std::vector<pcl::ModelCoefficients> coefficients;
+    std::vector<pcl::PointIndices> inliers;
+    const auto t1 = now();
+    pclPlanes(ps, cloud, coefficients, inliers);
+    pcl_s.push_back(secs(t1, now()));
+    pcl_planes = inliers.size();
+    pcl_pts = 0;
+    for (const auto& in : inliers) pcl_pts += in.indices.size();
+  }
+  std::size_t valid = 0;
+  for (const auto& p : pts) valid += p.allFinite();
+  const double ours = medianMs(ours_s), theirs = medianMs(pcl_s);
+  std::printf("scene %s, a %d x %d range image from the head (%zu returns), medians of 7 runs\n", scene_name.c_str(), n,
+              n, valid);
+  std::printf("segment_cloud (split + grouping): %.2f ms, %zu planes, %zu points in planes\n", ours, our_planes, our_pts);
+  std::printf("PCL (integral-image normals + OrganizedMultiPlaneSegmentation): %.2f ms, %zu planes, %zu points in planes\n",
+              theirs, pcl_planes, pcl_pts);
+  std::printf("ratio=%.3f (1/%.1f)\n", ours / theirs, theirs / ours);
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   tlp::sim::SceneEvalOptions o;
   o.sweeps = 6;
   PclSettings ps;
+  int organized_n = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--scene") o.scene = argv[i + 1];
+    else if (a == "--organized") organized_n = std::atoi(argv[i + 1]);
     else if (a == "--pcl-depth-change") ps.max_depth_change = std::atof(argv[i + 1]);
     else if (a == "--pcl-smoothing") ps.smoothing = std::atof(argv[i + 1]);
     else if (a == "--pcl-min-inliers") ps.min_inliers = std::atoi(argv[i + 1]);
@@ -103,10 +195,12 @@ int main(int argc, char** argv) {
     else if (a == "--speed") o.profile.speed = std::atof(argv[i + 1]);
     else {
       std::fprintf(stderr, "usage: compare_pcl [--scene NAME] [--sweeps N] [--seed S] [--speed RAD_PER_S] [--pcl-depth-change F]\n"
-                           "                   [--pcl-smoothing PX] [--pcl-min-inliers N] [--pcl-angle DEG] [--pcl-distance M]\n");
+                           "                   [--pcl-smoothing PX] [--pcl-min-inliers N] [--pcl-angle DEG] [--pcl-distance M]\n"
+                           "       compare_pcl --organized N [--scene NAME] [--seed S] [--pcl-...]\n");
       return 2;
     }
   }
+  if (organized_n >= 2) return organized(o.scene, organized_n, o.seed, ps);
   const auto ours = tlp::sim::evaluateScene(o);
   const Eigen::Vector3f head =
       tlp::sim::HeadGeometry::load(tlp::sim::configDirectory() + "/head.yaml").axis_origin.cast<float>();

@@ -252,12 +252,12 @@ bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
 void ScanLineGrouper::addMember(int region, int si) {
   Region& to = regions_[region];
   const Segment3& s = segs_[si];
-  to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), si), si);
+  const auto at = to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), si), si);
   to.moments += s.moments;
   to.fit = fitPlane(to.moments);
   to.first_line = std::min(to.first_line, s.line);
   to.last_line = std::max(to.last_line, s.line);
-  to.lines = countLines(to.members, segs_);
+  if (!lineShared(to.members, at - to.members.begin())) ++to.lines;
   seg_region_[si] = region;
 }
 
@@ -415,15 +415,23 @@ void ScanLineGrouper::pairBrokenLines() {
   }
 }
 
+bool ScanLineGrouper::lineShared(const std::vector<int>& members, std::ptrdiff_t k) const {
+  const int line = segs_[members[k]].line;
+  return (k > 0 && segs_[members[k - 1]].line == line) ||
+         (k + 1 < static_cast<std::ptrdiff_t>(members.size()) && segs_[members[k + 1]].line == line);
+}
+
 void ScanLineGrouper::removeMember(int region, int si) {
   Region& r = regions_[region];
   const Moments3& m = segs_[si].moments;
-  r.members.erase(std::remove(r.members.begin(), r.members.end(), si), r.members.end());
+  const auto at = std::lower_bound(r.members.begin(), r.members.end(), si);
+  if (at == r.members.end() || *at != si) return;  // not a member
+  if (!lineShared(r.members, at - r.members.begin())) --r.lines;
+  r.members.erase(at);
   r.moments -= m;
   r.fit = fitPlane(r.moments);
   r.first_line = segs_[r.members.front()].line;
   r.last_line = segs_[r.members.back()].line;
-  r.lines = countLines(r.members, segs_);
   seg_region_[si] = -1;
 }
 

@@ -133,6 +133,8 @@ class ScanLineGrouper {
   void absorb(int into, int from);
   void addMember(int region, int segment);     // keeps members sorted, refits
   void removeMember(int region, int segment);  // refits
+  /// Whether a neighbour of members[k] in the sorted members (so in line order) lies on its line.
+  bool lineShared(const std::vector<int>& members, std::ptrdiff_t k) const;
   /// One pass over the segments on their planes' edges: each goes to a
   /// neighbouring plane it lies nearer to, or, farther than the tolerance
   /// from its own plane fitted without it (if the rest still spans a plane),
