@@ -174,6 +174,27 @@ TEST(Grouping, AFloorWhoseLinesAreOffsetFromEachOtherStaysOnePlane) {
   EXPECT_GE(most, 0.95 * lines.size()) << planes.size() << " planes";  // (a lone line at an end may stay out)
 }
 
+TEST(Grouping, TwoLinesTooCloseToFixANormalAreNoPlane) {
+  // A tread seen by two lines from the step below it (issue 19's walk onto
+  // the first step): 2.2 cm apart, their heights 1 cm apart (the head's pose
+  // and the rig's errors), they fit a plane tilted 24 degrees exactly. Their
+  // spread across the lines (1.1 cm) does not fix a normal: no plane. The
+  // same lines 8 cm apart (spread 4 cm) are one, tilted 7 degrees.
+  for (const double gap : {0.022, 0.08}) {
+    std::vector<std::vector<Segment3>> lines = {{seg(0, 100, {1.3, -0.6, 0.45}, {1.3, 0.6, 0.45}, 200)},
+                                                {seg(1, 100, {1.3 + gap, -0.6, 0.46}, {1.3 + gap, 0.6, 0.46}, 200)}};
+    ScanLineGrouper g;
+    const auto planes = group(lines, g);
+    if (gap < 0.04) {
+      EXPECT_TRUE(planes.empty()) << planes.size() << " planes, the first tilted "
+                                  << std::acos(std::abs(planes[0].fit.normal.z())) * 180.0 / M_PI << " deg";
+    } else {
+      ASSERT_EQ(planes.size(), 1u);
+      EXPECT_NEAR(std::acos(std::abs(planes[0].fit.normal.z())) * 180.0 / M_PI, std::atan(0.01 / gap) * 180.0 / M_PI, 0.01);
+    }
+  }
+}
+
 TEST(Grouping, TwoPlanesMeetingAtACreaseStayApart) {
   // A floor (x 1..1.45), then a 45-degree ramp going up from x = 1.5.
   std::vector<std::vector<Segment3>> lines = floorLines(10, 1.0, 0.05, 0.0, -1.0, 1.0);

@@ -680,6 +680,12 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     if (r.dead || static_cast<int>(r.members.size()) < p_.min_segments || r.last_line == r.first_line) continue;
     Plane p;
     p.fit = fitPlane(r.moments);
+    // Its own points must fix its normal, as a region's must before a
+    // segment is judged by its plane (planar()): two lines a centimetre apart
+    // fit planes tilted by tens of degrees within their noise (a tread seen
+    // by two lines from a step), and a strip that many lines cross at one
+    // place (something that tilts with the laser) is no surface.
+    if (p.fit.spread(1) <= kPlanarSpread) continue;
     if (p.fit.normal.dot(sensor_ - p.fit.centroid) < 0.0) {
       p.fit.normal = -p.fit.normal;
       p.fit.offset = -p.fit.offset;
