@@ -241,7 +241,9 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
   for (std::size_t li = 0; li < sweep.lines.size(); ++li) {
     const SweepLine& line = sweep.lines[li];
     std::size_t ei = 0;
-    for (std::size_t i = 0; i < line.points.size(); ++i) {
+    // Beams outside the line's returns have no point to look at.
+    const std::size_t end = std::min(line.points.size(), static_cast<std::size_t>(std::max(0, line.returns_end)));
+    for (std::size_t i = static_cast<std::size_t>(std::max(0, line.returns_begin)); i < end; ++i) {
       while (si < sweep.segments.size() &&
              (sweep.segments[si].line < static_cast<int>(li) ||
               (sweep.segments[si].line == static_cast<int>(li) && sweep.segments[si].last < static_cast<int>(i))))
