@@ -102,6 +102,7 @@ void pclSegment(const PclSettings& ps, const Eigen::Vector3f& head, const tlp::c
                    pl.fit.centroid.x(), pl.fit.centroid.y(), pl.fit.centroid.z());
   }
 }
+
 double medianMs(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : 1e3 * v[v.size() / 2];
