@@ -8,7 +8,8 @@ Prints correct / true faces (and the percentage), missed, noise and under a
 sweep, the normal error of the correct faces, the height map RMSE of the sweep's own map and of the
 fused one, and how much of the 1 m in front of the feet each knows (means
 over the sweeps; the front's, as evaluate's summary, over those after 1 m
-walked), and the veil and overhanging segments a sweep.
+walked; and how much of it the points reach), and the veil and overhanging
+segments a sweep.
 """
 import csv
 import io
@@ -48,7 +49,8 @@ def main():
           f"correct {correct:.0f}/{true_faces:.0f} = {100 * correct / max(true_faces, 1):.0f} %, "
           f"missed {mean('missed'):.2f}, noise {mean('noise'):.2f}, under {mean('under'):.2f} a sweep, "
           f"normal error {normal:.2f} deg, RMSE {100 * mean('heightmap_rmse_m'):.2f} / {100 * mean('fused_rmse_m'):.2f} cm, "
-          f"front known {front('front_coverage'):.0f} / {front('fused_front_coverage'):.0f} %, "
+          f"front known {front('front_coverage'):.0f} / {front('fused_front_coverage'):.0f} % "
+          f"(points reach {front('front_observable'):.0f} %), "
           f"veil / overhanging segments {mean('veil_segments'):.2f} / {mean('overhanging_segments'):.2f} a sweep")
 
 

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <unordered_map>
 
 #include "tilt_laser_perception/dynamixel/mx64.hpp"
 #include "tilt_laser_perception/sim/evaluation.hpp"
@@ -89,19 +90,23 @@ class TruthHeights {
 };
 
 struct MapScore {
-  double rmse = 0.0, coverage = 0.0, front = 0.0;
+  double rmse = 0.0, coverage = 0.0, front = 0.0, front_observable = 0.0;
 };
+
+/// The map cells (world indices at one resolution) that points fell in, and when.
+using HitCells = std::unordered_map<std::int64_t, double>;
+std::int64_t cellKey(long i, long j) { return (static_cast<std::int64_t>(i) << 32) ^ static_cast<std::uint32_t>(j); }
 
 /// A map against the truth: RMSE and coverage of the cells within `radius`
 /// of the base, and coverage of the front_length x front_width in front of it.
 MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Eigen::Isometry3d& base,
-                  const SceneEvalOptions& o) {
+                  const SceneEvalOptions& o, const HitCells* hits = nullptr, double seen_after = 0.0) {
   const core::HeightMapParams& hp = grid.params;
   const long i0 = std::lround(hp.origin_x / hp.resolution), j0 = std::lround(hp.origin_y / hp.resolution);
   const Eigen::Vector2d c = base.translation().head<2>();
   const Eigen::Vector2d fwd = (base.linear() * Eigen::Vector3d::UnitX()).head<2>().normalized();
   double se = 0.0;
-  int known = 0, expected = 0, front_known = 0, front_expected = 0;
+  int known = 0, expected = 0, front_known = 0, front_expected = 0, front_hit = 0;
   for (int iy = 0; iy < hp.height; ++iy)
     for (int ix = 0; ix < hp.width; ++ix) {
       const Eigen::Vector2d d = Eigen::Vector2d(hp.origin_x + (ix + 0.5) * hp.resolution,
@@ -115,6 +120,10 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
       const float h = grid.heights[grid.index(ix, iy)];
       front_expected += front;
       front_known += front && !std::isnan(h);
+      if (front && hits) {
+        const auto it = hits->find(cellKey(i0 + ix, j0 + iy));
+        front_hit += it != hits->end() && it->second >= seen_after;
+      }
       if (!near) continue;
       ++expected;
       if (std::isnan(h)) continue;
@@ -125,6 +134,7 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   m.rmse = known ? std::sqrt(se / known) : 0.0;
   m.coverage = expected ? static_cast<double>(known) / expected : 0.0;
   m.front = front_expected ? static_cast<double>(front_known) / front_expected : 0.0;
+  m.front_observable = front_expected ? static_cast<double>(front_hit) / front_expected : 0.0;
   return m;
 }
 
@@ -141,7 +151,7 @@ struct LineTruth {
 SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_fused, const core::SweepResult& sw,
                 const std::map<double, LineTruth>& truth, const std::map<double, double>& split_time,
                 const SceneEvalOptions& o, double latency, const Eigen::Isometry3d& base, double travelled,
-                core::HeightMapGrid& grid, core::FusedHeightMap& fused) {
+                core::HeightMapGrid& grid, core::FusedHeightMap& fused, HitCells& hits) {
   SweepEval e;
   e.lines = static_cast<int>(sw.lines.size());
   // Points judged: valid returns within the radius; their true face and detected plane.
@@ -264,10 +274,16 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   fused.addSweep(sw, core::meanOrigin(sw), sw.end, travelled);
   e.fused_ms = (cpuNow() - f0) * 1e3;
   if (!o.dump_prefix.empty()) dumpSweep(sw, fused.grid(), o.dump_prefix + "_fused", base, frame, true);
-  const MapScore f = scoreMap(fused.grid(), truth_fused, base, o);
+  // Every point of the sweep, in the fused map's cells (forgotten as the map forgets).
+  const double fr = fused.grid().params.resolution;
+  for (const core::SweepLine& line : sw.lines)
+    for (const Eigen::Vector3f& q : line.points)
+      if (q.allFinite()) hits[cellKey(std::lround(std::floor(q.x() / fr)), std::lround(std::floor(q.y() / fr)))] = sw.end;
+  const MapScore f = scoreMap(fused.grid(), truth_fused, base, o, &hits, sw.end - o.fused.forget_time);
   e.fused_rmse_m = f.rmse;
   e.fused_coverage = f.coverage;
   e.fused_front_coverage = f.front;
+  e.front_observable = f.front_observable;
   e.travelled_m = travelled;
   double split = 0.0;
   for (const auto& line : sw.lines) {
@@ -306,6 +322,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   std::vector<SweepEval> out;
   core::HeightMapGrid grid;
   core::FusedHeightMap fused(o.heightmap, o.fused);
+  HitCells hits;
   TruthHeights truth_h(scene, o.heightmap.resolution, head.axis_origin.z());
   const double fused_res = fused.grid().params.resolution;  // its own cells, or the sweep map's
   std::unique_ptr<TruthHeights> own_fused_truth;
@@ -362,7 +379,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
       if (o.walk.walking() && !o.pose_per_line) core::transformSweep(done, end_pose);
       if (o.on_sweep) o.on_sweep(done);
       out.push_back(judge(scene, truth_h, truth_f, done, truth, split_time, o, done.finish_seconds, end_pose,
-                          walk.travelled(done.end), grid, fused));
+                          walk.travelled(done.end), grid, fused, hits));
       // Forget the truth of lines before this sweep.
       truth.erase(truth.begin(), truth.lower_bound(done.start));
     }
@@ -399,19 +416,19 @@ std::string evalCsvHeader() {
   return "sweep,lines,planes,true_faces,correct,over,under,missed,noise,normal_err_deg,offset_err_m,edge_precision,"
          "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
          "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m,mixed_pixels,"
-         "mixed_in_segments";
+         "mixed_in_segments,front_observable";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
   char buf[640];
   std::snprintf(buf, sizeof(buf),
                 "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,"
-                "%d,%d",
+                "%d,%d,%.3f",
                 sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
                 e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
                 e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
                 e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m,
-                e.mixed_pixels, e.mixed_in_segments);
+                e.mixed_pixels, e.mixed_in_segments, e.front_observable);
   return buf;
 }
 
@@ -426,12 +443,13 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
   // sweeps after 1 m walked, or all when it stands.
   bool walked = false;
   for (const SweepEval& e : ev) walked = walked || e.travelled_m > 0.0;
-  double front = 0.0, fused_front = 0.0;
+  double front = 0.0, fused_front = 0.0, observable = 0.0;
   int front_n = 0;
   for (const SweepEval& e : ev) {
     if (!walked || e.travelled_m >= 1.0) {
       front += e.front_coverage;
       fused_front += e.fused_front_coverage;
+      observable += e.front_observable;
       ++front_n;
     }
     s.fused_rmse_m += e.fused_rmse_m / n;
@@ -459,6 +477,7 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
   if (front_n) {
     front /= front_n;
     fused_front /= front_n;
+    observable /= front_n;
   }
   char buf[1024];
   std::snprintf(buf, sizeof(buf),
@@ -466,11 +485,11 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
                 "edge_precision=%.3f edge_recall=%.3f heightmap_rmse_m=%.4f heightmap_coverage=%.3f split_ms=%.2f "
                 "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d front_coverage=%.3f "
                 "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f mixed_pixels=%.1f "
-                "mixed_in_segments=%.1f",
+                "mixed_in_segments=%.1f front_observable=%.3f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
                 s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms, mixed,
-                mixed_in);
+                mixed_in, observable);
   return buf;
 }
 

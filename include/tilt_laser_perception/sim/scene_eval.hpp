@@ -85,6 +85,10 @@ struct SweepEval {
   double heightmap_rmse_m = 0.0, heightmap_coverage = 0.0;  ///< the sweep's own map, within heightmap_radius of the base
   double front_coverage = 0.0;        ///< the sweep's own map, in front of the feet (front_length x front_width)
   double fused_rmse_m = 0.0, fused_coverage = 0.0, fused_front_coverage = 0.0;  ///< the same of the fused map
+  /// The front's cells (with a true height) that a point of this sweep or of
+  /// an earlier one not yet forgotten fell in, at the fused map's cells: what
+  /// the points alone reach (the maps' polygons fill the gaps between lines too).
+  double front_observable = 0.0;
   double fused_ms = 0.0;              ///< time to fuse the sweep into the fused map (its own map included)
   double travelled_m = 0.0;           ///< how far the robot had walked at the sweep's end
   double split_ms = 0.0, group_ms = 0.0, latency_ms = 0.0;
