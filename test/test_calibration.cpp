@@ -153,13 +153,17 @@ TEST(CalibrationWatch, SaysWhenTheHeadWasKnocked) {
         std::printf("the window's solve: %.0f ms of CPU (%d points)\n",
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1e3, r.points);
         drifted += watch.judge(r, message);
-        if (slip_deg > 0) EXPECT_NEAR(r.calibration.joint_offset / kDeg, slip_deg, 0.05);
+        if (slip_deg > 0) {
+          EXPECT_NEAR(r.calibration.joint_offset / kDeg, slip_deg, 0.05);
+        }
       }
     };
     sim::evaluateScene(o);
     std::printf("slip %.1f deg: %s\n", slip_deg, message.c_str());
     EXPECT_EQ(windows, 1);
     EXPECT_EQ(drifted, slip_deg > 0 ? 1 : 0);
-    if (slip_deg > 0) EXPECT_NE(message.find("joint_offset +1.0"), std::string::npos) << message;
+    if (slip_deg > 0) {
+      EXPECT_NE(message.find("joint_offset +1.0"), std::string::npos) << message;
+    }
   }
 }

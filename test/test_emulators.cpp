@@ -116,7 +116,9 @@ scip::ScanData scanOf(Client& c, const std::string& cmd, const std::string& stat
   if (req.continuous()) r = c.next(0.5);  // the first scan after the echo of the command
   EXPECT_TRUE(r.has_value()) << cmd;
   scip::ScanData d;
-  if (r) EXPECT_EQ(scip::decodeScan(*r, req, d), scip::DecodeError::None) << cmd;
+  if (r) {
+    EXPECT_EQ(scip::decodeScan(*r, req, d), scip::DecodeError::None) << cmd;
+  }
   return d;
 }
 }  // namespace
@@ -138,7 +140,9 @@ TEST(UtmEmulator, MultiEchoAndTwoCharacterRangesAsTheProtocolDefinesThem) {
     EXPECT_EQ(d.echo_ranges[200 * scip::kMaxEchoes + 2], 7250u);
     EXPECT_EQ(d.echo_count[300], 1);
     EXPECT_EQ(d.ranges[300], 1u);  // no return: error code 1, one value
-    if (cmd[1] == 'E') EXPECT_EQ(d.echo_intensities[200 * scip::kMaxEchoes + 1], 501u);
+    if (cmd[1] == 'E') {
+      EXPECT_EQ(d.echo_intensities[200 * scip::kMaxEchoes + 1], 501u);
+    }
   }
   ASSERT_EQ(c.command("BM")->status, "00");  // ND with one scan turned the laser off
   const scip::ScanData gd = scanOf(c, "GD0000108000", "00");
