@@ -94,8 +94,10 @@ struct MapScore {
 };
 
 /// The map cells (world indices at one resolution) that points fell in, and when.
-using HitCells = std::unordered_map<std::int64_t, double>;
-std::int64_t cellKey(long i, long j) { return (static_cast<std::int64_t>(i) << 32) ^ static_cast<std::uint32_t>(j); }
+using HitCells = std::unordered_map<std::uint64_t, double>;
+std::uint64_t cellKey(long i, long j) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(i)) << 32) | static_cast<std::uint32_t>(j);
+}
 
 /// A map against the truth: RMSE and coverage of the cells within `radius`
 /// of the base, and coverage of the front_length x front_width in front of it.
