@@ -946,9 +946,11 @@ TEST(SweepAssembler, KnowsTheSpanOfEachLinesReturns) {
     EXPECT_EQ(l.returns_end, 1000);
     EXPECT_TRUE(l.points[119].hasNaN() && l.points[120].allFinite() && l.points[999].allFinite() &&
                 l.points[1000].hasNaN());
+    EXPECT_EQ(l.returns(), std::make_pair(120, 1000));
   }
-  EXPECT_EQ(SweepLine().returns_begin, 0);  // a line made elsewhere: the whole line
-  EXPECT_GT(SweepLine().returns_end, 100000);
+  SweepLine elsewhere;  // a line made elsewhere: the whole line
+  elsewhere.points.resize(5);
+  EXPECT_EQ(elsewhere.returns(), std::make_pair(0, 5));
 }
 
 TEST(SweepAssembler, AWalkingBaseMovesEveryBeamToItsOwnTime) {

@@ -326,7 +326,9 @@ TEST(LidarSim, RainGivesAWeakNearFirstEchoAndTheSurfaceLater) {
     sim::SimScan copy = scan;
     sim::selectEcho(copy, choice);
     for (std::size_t i = 0; i < copy.ranges.size(); ++i)
-      if (std::isfinite(copy.true_ranges[i])) EXPECT_NEAR(copy.ranges[i], copy.true_ranges[i], 1e-3) << i;
+      if (std::isfinite(copy.true_ranges[i])) {
+        EXPECT_NEAR(copy.ranges[i], copy.true_ranges[i], 1e-3) << i;
+      }
   }
 }
 

@@ -242,8 +242,8 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
     const SweepLine& line = sweep.lines[li];
     std::size_t ei = 0;
     // Beams outside the line's returns have no point to look at.
-    const std::size_t end = std::min(line.points.size(), static_cast<std::size_t>(std::max(0, line.returns_end)));
-    for (std::size_t i = static_cast<std::size_t>(std::max(0, line.returns_begin)); i < end; ++i) {
+    const auto [begin, end] = line.returns();
+    for (std::size_t i = begin; i < static_cast<std::size_t>(end); ++i) {
       while (si < sweep.segments.size() &&
              (sweep.segments[si].line < static_cast<int>(li) ||
               (sweep.segments[si].line == static_cast<int>(li) && sweep.segments[si].last < static_cast<int>(i))))

@@ -193,8 +193,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       mark(pts[i], nullptr);
     };
     // Beams outside the line's returns are not looked at (no point to load).
-    const int end = std::min(static_cast<int>(pts.size()), sweep.lines[li].returns_end);
-    int cursor = std::max(0, sweep.lines[li].returns_begin);
+    auto [cursor, end] = sweep.lines[li].returns();
     for (; si < sweep.segments.size() && sweep.segments[si].line == static_cast<int>(li); ++si) {
       const Segment3& s = sweep.segments[si];
       const int pid = sweep.segment_plane[si];

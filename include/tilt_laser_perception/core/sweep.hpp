@@ -7,12 +7,14 @@
  */
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tilt_laser_perception/core/grouping.hpp"
@@ -79,6 +81,10 @@ struct SweepLine {
   /// 270-degree scan's rear beams often see nothing): passes over the line's
   /// loose points skip them. The defaults say nothing (the whole line).
   int returns_begin = 0, returns_end = std::numeric_limits<int>::max();
+  /// [first, last + 1) of the beams with a return, within the line.
+  std::pair<int, int> returns() const {
+    return {std::max(0, returns_begin), std::min(static_cast<int>(points.size()), returns_end)};
+  }
 };
 
 /// A finished sweep.
