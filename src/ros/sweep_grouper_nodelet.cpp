@@ -197,12 +197,10 @@ bool SweepGrouperNodelet::setupChain() {
     // Not yet (the transforms stop short of t: wait for them) or a gap? Once
     // the latest transforms are past t, look again: they may have arrived
     // between the two look-ups.
-    // None at all yet (or a frame that never comes): asked without an exception too.
-    if (!tf_buffer_->canTransform(frame_id_, parent_link_, ros::Time(0))) return Status::Wait;  // the assembler gives up after max_wait
     try {
       if (tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(0)).header.stamp < at) return Status::Wait;
     } catch (const tf2::TransformException&) {
-      return Status::Wait;
+      return Status::Wait;  // no transform at all yet (the assembler gives up after max_wait)
     }
     if (lookup()) return Status::Ok;
     std::string why;
