@@ -14,9 +14,11 @@
 // without, the fixed angles again (the NeckRelay's job, without its joint
 // state messages). Parameters (private): publish_frequency [Hz] (50);
 // hold/joints, hold/fixed_positions [rad], hold/timeout [s], hold/rate [Hz]
-// (config/neck.yaml). The joint states are taken inline, in the thread that
-// delivers them (the driver's servo loop: no wake-up of another thread 200
-// times a second); onState and the hold timer share a short-held mutex.
+// (config/neck.yaml). The joint states of this process (the driver's 200 Hz)
+// are taken inline, in the thread that publishes them: no wake-up of another
+// thread 200 times a second. Those of another process (the robot's own,
+// a bag) go through the nodelet's queue: see onState. onState and the hold
+// timer share a short-held mutex.
 #include <algorithm>
 #include <map>
 #include <memory>
@@ -51,6 +53,16 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     ros::Time last;  // stamp last published
   };
 
+  uint64_t ownerId() const { return reinterpret_cast<uint64_t>(this); }
+
+ public:
+  ~HeadStatePublisherNodelet() override {
+    hold_timer_.stop();
+    sub_.shutdown();  // no inline call after this (it waits for one in progress)
+    if (queue_) queue_->removeByID(ownerId());
+  }
+
+ private:
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
@@ -109,9 +121,10 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
       }
       held_.push_back(Held{hold[i], fixed[i], core::JointHold(timeout)});
     }
+    queue_ = nh.getCallbackQueue();
     ros::SubscribeOptions states;
-    states.init<sensor_msgs::JointState>("joint_states", 100,
-                                         boost::bind(&HeadStatePublisherNodelet::onState, this, boost::placeholders::_1));
+    states.initByFullCallbackType<const ros::MessageEvent<sensor_msgs::JointState const>&>(
+        "joint_states", 100, boost::bind(&HeadStatePublisherNodelet::onState, this, boost::placeholders::_1));
     states.callback_queue = &inline_queue_;
     states.allow_concurrent_callbacks = true;  // serialized by mutex_
     sub_ = nh.subscribe(states);
@@ -161,7 +174,24 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     send(m);
   }
 
-  void onState(const sensor_msgs::JointStateConstPtr& js) {
+  /// A joint state published in this process runs here inside its publish,
+  /// in the publisher's thread, which holds roscpp's publish lock: the /tf
+  /// this publishes takes that lock again (it is recursive). One from another
+  /// process runs in roscpp's receiving thread, which holds the joint_states
+  /// subscription's lock; publishing there waits for the publish lock, which
+  /// the driver holds while it waits for that subscription's lock to deliver
+  /// its own joint state: a deadlock that stopped the whole head (the
+  /// robot's neck from its controller, 1 kHz, did it within 15 s). Those
+  /// are handed to the nodelet's queue.
+  void onState(const ros::MessageEvent<sensor_msgs::JointState const>& event) {
+    if (event.getPublisherName() == ros::this_node::getName()) {
+      follow(event.getConstMessage());
+      return;
+    }
+    queue_->addCallback(boost::make_shared<TaskCallback>([this, js = event.getConstMessage()] { follow(js); }), ownerId());
+  }
+
+  void follow(const sensor_msgs::JointStateConstPtr& js) {
     if (js->name.size() != js->position.size()) return;
     boost::shared_ptr<tf2_msgs::TFMessage> m;  // made only when a transform is due (50 of the 200 a second)
     {
@@ -190,6 +220,7 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     bool said = false, holding = true;
   };
   InlineCallbackQueue inline_queue_;  // outlives sub_
+  ros::CallbackQueueInterface* queue_ = nullptr;  // the nodelet's: joint states of other processes
   std::mutex mutex_;                  // moving_, held_: onState against onHold
   std::map<std::string, Moving> moving_;
   std::vector<Held> held_;

@@ -11,7 +11,11 @@
 // and the tf listener's insert into its buffer. roscpp holds one lock of its
 // own over every publish in the process, and an in-process message's
 // callbacks run inside that publish: an inline callback must not wait for a
-// lock that another thread holds while it publishes.
+// lock that another thread holds while it publishes. Nor may it publish when
+// it runs for a message of another process: roscpp's receiving thread then
+// holds the subscription's lock, which an in-process publisher of the same
+// topic waits for while it holds the publish lock (the head stopped dead so:
+// HeadStatePublisher hands such messages to its nodelet's queue).
 //
 // TaskCallback is one job for an ordinary callback queue (the nodelet's own:
 // run by its worker like any of its callbacks).
