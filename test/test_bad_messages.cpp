@@ -177,6 +177,10 @@ TEST_F(BadMessages, ThePipelineKeepsSeeingAndCountsEachBadMessage) {
     j.name = {"head_tilt_joint", "NECK_P"};  // names and positions differ in length
     j.position = {0.3};
     joint_pub_.publish(j);
+    j.name = {"head_tilt_joint"};  // 50 s ahead: into tf, it made every listener drop the real ones for 40 s
+    j.position = {0.3};
+    j.header.stamp = ros::Time::now() + ros::Duration(50.0);
+    joint_pub_.publish(j);
     for (const float ti : {1.0f, -1e-5f}) {  // 11 real lines were lost behind these
       s = goodScan();
       s.time_increment = ti;
@@ -281,6 +285,8 @@ TEST_F(BadMessages, ThePipelineKeepsSeeingAndCountsEachBadMessage) {
   EXPECT_GE(totalOf(diagValue("sweep grouper", "dropped: joint_states: name and position differ in length")), 1u);
   EXPECT_GE(totalOf(diagValue("scan splitter", "dropped: scan: time_increment/scan_time not finite, negative or too long")),
             3u);
+  for (const char* reason : {"stamp zero (not set)", "stamp ahead of the clock", "name and position differ in length"})
+    EXPECT_GE(totalOf(diagValue("head state publisher", std::string("dropped: joint_states: ") + reason)), 1u) << reason;
   EXPECT_EQ(diagValue("sweep grouper", "exceptions caught"), "0");
   // A second publisher on scan numbers its own messages: not thousands of lines "missed".
   const std::string missed = diagValue("sweep grouper", "scans missed upstream (sequence gaps)");
@@ -344,7 +350,7 @@ TEST_F(BadMessages, ADeadManagerIsRespawnedAndSaysSo) {
   std::printf("manager killed: planes again after %.1f s\n", seconds);
   spinFor(1.5);
   EXPECT_NE(pidOf("__name:=tilt_laser_manager"), pid);
-  for (const char* status : {"sweep grouper", "scan splitter", "laser"})
+  for (const char* status : {"sweep grouper", "scan splitter", "laser", "head state publisher"})
     EXPECT_EQ(diagValue(status, "loads (1: never restarted)"), "2") << status;
   EXPECT_NE(diagValue("sweep grouper", "__message").find("restarted (load 2)"), std::string::npos)
       << diagValue("sweep grouper", "__message");

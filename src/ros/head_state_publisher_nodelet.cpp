@@ -27,6 +27,7 @@
 #include <vector>
 
 #include <boost/make_shared.hpp>
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -40,6 +41,7 @@
 #include "tilt_laser_perception/core/joint_hold.hpp"
 #include "tilt_laser_perception/ros/conversions.hpp"
 #include "tilt_laser_perception/ros/inline_queue.hpp"
+#include "tilt_laser_perception/ros/input_health.hpp"
 
 namespace tilt_laser_perception {
 
@@ -58,6 +60,7 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
  public:
   ~HeadStatePublisherNodelet() override {
     hold_timer_.stop();
+    diag_timer_.stop();
     sub_.shutdown();  // no inline call after this (it waits for one in progress)
     if (queue_) queue_->removeByID(ownerId());
   }
@@ -66,6 +69,13 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
+    health_.init(getName(), pnh);
+    pnh.param("max_stamp_age", stamp_limits_.max_age, stamp_limits_.max_age);
+    pnh.param("max_stamp_ahead", stamp_limits_.max_ahead, stamp_limits_.max_ahead);
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID("none");
+    diagnostics_->add("head state publisher", this, &HeadStatePublisherNodelet::diagnose);
+    diag_timer_ = nh.createTimer(ros::Duration(0.5), [this](const ros::TimerEvent&) { diagnostics_->update(); });
     double frequency = 50.0;
     pnh.param("publish_frequency", frequency, 50.0);
     interval_ = ros::Duration(frequency > 0.0 ? 1.0 / frequency : 0.0);
@@ -191,14 +201,34 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     queue_->addCallback(boost::make_shared<TaskCallback>([this, js = event.getConstMessage()] { follow(js); }), ownerId());
   }
 
+  /// The transforms of the joints of the URDF in one joint state. A stamp
+  /// that is not set, or far from the clock, would go into tf as it is: one
+  /// 50 s ahead makes every listener drop the real ones for 40 s (tf keeps 10 s).
   void follow(const sensor_msgs::JointStateConstPtr& js) {
-    if (js->name.size() != js->position.size()) return;
+    const double now = InputHealth::now();
     boost::shared_ptr<tf2_msgs::TFMessage> m;  // made only when a transform is due (50 of the 200 a second)
     {
       std::lock_guard<std::mutex> l(mutex_);
+      if (std::none_of(js->name.begin(), js->name.end(), [&](const std::string& n) { return moving_.count(n); }))
+        return;  // none of the head's joints (the robot's others)
+      if (first_state_ < 0.0) first_state_ = now;
+      states_in_.add(now);
+      if (js->name.size() != js->position.size()) {
+        health_.refuse("joint_states: name and position differ in length",
+                       std::to_string(js->name.size()) + " names, " + std::to_string(js->position.size()) + " positions");
+        return;
+      }
+      if (const char* bad = core::checkStamp(js->header.stamp.toSec(), now, stamp_limits_)) {
+        health_.refuse(std::string("joint_states: ") + bad, std::to_string(js->header.stamp.toSec()));
+        return;
+      }
       for (std::size_t i = 0; i < js->name.size(); ++i) {
         const auto it = moving_.find(js->name[i]);
-        if (it == moving_.end() || !std::isfinite(js->position[i])) continue;
+        if (it == moving_.end()) continue;
+        if (const char* bad = core::checkJointPosition(js->position[i])) {
+          health_.refuse(std::string("joint_states: ") + bad, js->name[i]);
+          continue;
+        }
         Moving& mv = it->second;
         const ros::Time& stamp = js->header.stamp;
         if (stamp < mv.last) mv.last = ros::Time();  // the clock went back (a bag looped): start again
@@ -209,8 +239,25 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
       }
       for (Held& h : held_)
         if (std::find(js->name.begin(), js->name.end(), h.joint) != js->name.end()) h.hold.seen(ros::WallTime::now().toSec());
+      if (m) transforms_out_.add(now);
     }
     send(m);
+  }
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+    std::lock_guard<std::mutex> l(mutex_);
+    const double now = InputHealth::now();
+    std::string why = "no joint states yet: only the fixed and held joints";
+    const core::Health level =
+        first_state_ < 0.0 ? core::Health::Ok : health_.judge(states_in_, transforms_out_, first_state_, 5.0, why);
+    health_.report(stat, level, why);
+    stat.add("joint states (last 10 s)", states_in_.recent(now));
+    stat.add("transform messages from joint states (last 10 s)", transforms_out_.recent(now));
+    std::string held;
+    const double wall = ros::WallTime::now().toSec();
+    for (const Held& h : held_)
+      if (h.hold.holding(wall)) held += (held.empty() ? "" : ", ") + h.joint;
+    stat.add("held at fixed angles (nobody gives them)", held.empty() ? "none" : held);
   }
 
   struct Held {
@@ -221,10 +268,15 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
   };
   InlineCallbackQueue inline_queue_;  // outlives sub_
   ros::CallbackQueueInterface* queue_ = nullptr;  // the nodelet's: joint states of other processes
-  std::mutex mutex_;                  // moving_, held_: onState against onHold
+  std::mutex mutex_;  // moving_, held_, the counts: joint states against the timers
   std::map<std::string, Moving> moving_;
   std::vector<Held> held_;
-  ros::Timer hold_timer_;
+  ros::Timer hold_timer_, diag_timer_;
+  InputHealth health_;
+  core::StampLimits stamp_limits_;
+  core::WindowCounter states_in_, transforms_out_;
+  double first_state_ = -1.0;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::Duration interval_;
   ros::Publisher tf_pub_;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_broadcaster_;
