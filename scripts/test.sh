@@ -22,5 +22,6 @@ colcon test --packages-select tilt_laser_perception --event-handlers console_dir
 colcon test-result --verbose --test-result-base build/tilt_laser_perception || status=1
 bash "$here/scripts/sanitize.sh" all || { echo "sanitizer tests FAILED"; status=1; }
 bash "$here/scripts/fuzz.sh" "${TLP_FUZZ_SECONDS:-30}" || { echo "fuzzing FAILED"; status=1; }
+[ "$status" -eq 0 ] || python3 "$here/scripts/test_failures.py" build/tilt_laser_perception/test_results || true
 [ "$status" -eq 0 ] && echo "all tests passed" || echo "SOME TESTS FAILED"
 exit "$status"
