@@ -129,6 +129,9 @@ TEST(InputCheck, WindowCountsForgetWhatIsOlderThanTheWindow) {
   ASSERT_EQ(r.entries(21.5).size(), 2u);
   EXPECT_EQ(r.entries(21.5)[0].recent, 0u);
   EXPECT_EQ(r.entries(21.5)[0].total, 2u);
+  EXPECT_EQ(r.add("joint_states: inbox full (the worker fell behind)", 22.0, 400), 400u);  // many at once
+  EXPECT_EQ(r.recent(22.5), 400u);  // the one at 12 s is out of the window
+  EXPECT_EQ(r.total(), 403u);
 }
 
 TEST(InputCheck, HealthTellsThePresent) {

@@ -59,15 +59,15 @@ unsigned long WindowCounter::recent(double now) const {
   return n;
 }
 
-unsigned long ReasonCounts::add(const std::string& reason, double now) {
+unsigned long ReasonCounts::add(const std::string& reason, double now, unsigned long k) {
   for (auto& [r, c] : counts_)
     if (r == reason) {
-      c.add(now);
+      c.add(now, k);
       return c.total();
     }
   counts_.emplace_back(reason, WindowCounter(window_));
-  counts_.back().second.add(now);
-  return 1;
+  counts_.back().second.add(now, k);
+  return k;
 }
 
 unsigned long ReasonCounts::recent(double now) const {

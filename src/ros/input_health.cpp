@@ -32,8 +32,8 @@ int countLoad(ros::NodeHandle& pnh, const std::string& name) {
   return loads;
 }
 
-void InputHealth::refuse(const std::string& reason, const std::string& detail) {
-  const unsigned long total = refused_.add(reason, now());
+void InputHealth::refuse(const std::string& reason, const std::string& detail, unsigned long k) {
+  const unsigned long total = refused_.add(reason, now(), k);
   static constexpr std::size_t kMaxReasons = 64;  // reasons are fixed strings; bound the map anyway
   const ros::WallTime t = ros::WallTime::now();
   auto it = last_warned_.find(reason);

@@ -219,6 +219,12 @@ bool SweepGrouperNodelet::setupChain() {
 
 void SweepGrouperNodelet::onJointInline(const sensor_msgs::JointStateConstPtr& js) {
   std::lock_guard<std::mutex> l(inbox_mutex_);
+  // Bounded: the worker drains it every poll (50 ms); full, it is stuck, and
+  // the newest are dropped (counted) rather than the memory grown.
+  if (inbox_.size() >= kInboxMax) {
+    ++inbox_dropped_;
+    return;
+  }
   inbox_.push_back(js);  // joint_queue_ then wakes the worker if a line waits for it
 }
 
@@ -228,10 +234,14 @@ void SweepGrouperNodelet::kickIf(core::SweepAssembler::Waiting what) {
 }
 
 void SweepGrouperNodelet::drainJoints() {
+  unsigned long dropped = 0;
   {
     std::lock_guard<std::mutex> l(inbox_mutex_);
     inbox_taken_.swap(inbox_);  // both keep their capacity: no allocation once warm
+    dropped = inbox_dropped_;
+    inbox_dropped_ = 0;
   }
+  if (dropped) health_.refuse("joint_states: inbox full (the worker fell behind)", std::to_string(kInboxMax) + " waiting", dropped);
   for (const auto& js : inbox_taken_) guarded("joint_states", [&] { addJoint(*js); });
   inbox_taken_.clear();
 }

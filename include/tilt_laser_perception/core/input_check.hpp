@@ -59,8 +59,8 @@ class WindowCounter {
 class ReasonCounts {
  public:
   explicit ReasonCounts(double window = 10.0) : window_(window) {}
-  /// Counts one; returns that reason's total so far.
-  unsigned long add(const std::string& reason, double now);
+  /// Counts k (one); returns that reason's total so far.
+  unsigned long add(const std::string& reason, double now, unsigned long k = 1);
   unsigned long recent(double now) const;
   unsigned long total() const;
   /// (reason, recent, total) for every reason seen.

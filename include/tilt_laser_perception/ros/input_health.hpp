@@ -29,8 +29,8 @@ class InputHealth {
  public:
   /// `name` prefixes the log lines; the load count is kept in `pnh`'s "~loads".
   void init(const std::string& name, ros::NodeHandle& pnh, double window = 10.0);
-  /// Counts a refused (or dropped) input and warns, at most every 5 s per reason.
-  void refuse(const std::string& reason, const std::string& detail = std::string());
+  /// Counts k refused (or dropped) inputs and warns, at most every 5 s per reason.
+  void refuse(const std::string& reason, const std::string& detail = std::string(), unsigned long k = 1);
   /// Scan lines lost upstream, counted per publisher (a second publisher on
   /// the topic numbers its own messages); returns how many were missed.
   unsigned long sequence(const std::string& publisher, std::uint32_t seq);

@@ -75,6 +75,8 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   InlineCallbackQueue tf_queue_{[this] { kickIf(core::SweepAssembler::Waiting::Pose); }};
   std::mutex inbox_mutex_;  // held only to push or swap: never while grouping or publishing
   std::vector<sensor_msgs::JointStateConstPtr> inbox_, inbox_taken_;
+  static constexpr std::size_t kInboxMax = 4000;  // 20 s at 200 Hz
+  unsigned long inbox_dropped_ = 0;               // since the last drain
   std::atomic<core::SweepAssembler::Waiting> waiting_{core::SweepAssembler::Waiting::Nothing};
   std::atomic<bool> kicked_{false};
   ros::CallbackQueueInterface* worker_queue_ = nullptr;  // the nodelet's own
