@@ -196,7 +196,9 @@ bool SweepGrouperNodelet::setupChain() {
     if (lookup()) return Status::Ok;
     // Not yet (the transforms stop short of t: wait for them) or a gap? Once
     // the latest transforms are past t, look again: they may have arrived
-    // between the two look-ups.
+    // between the two look-ups. No transform at all yet (start-up, a frame
+    // that never comes): asked first, not thrown at every poll.
+    if (!tf_buffer_->canTransform(frame_id_, parent_link_, ros::Time(0))) return Status::Wait;
     try {
       if (tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(0)).header.stamp < at) return Status::Wait;
     } catch (const tf2::TransformException&) {
