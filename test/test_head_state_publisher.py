@@ -2,7 +2,8 @@
 """The HeadStatePublisher gives the fixed joints on /tf_static, each joint
 state's moving joints on /tf, and the neck at its fixed angles while nobody
 gives it: the neck pitch 0.25 rad (the test's config), then the robot's -0.2
-while it publishes, then 0.25 again once it stops."""
+while it publishes, then 0.25 again once it stops; with the tilt's joint
+states alone (the driver), the held neck at their stamps."""
 import math
 import time
 import unittest
@@ -54,6 +55,26 @@ class HeadStatePublisher(unittest.TestCase):
         # silent again: back to the fixed angle after the timeout (0.5 s)
         time.sleep(1.5)
         self.assertAlmostEqual(self.neck_pitch(), 0.25, places=4)
+        # the tilt alone, as the driver gives it: the held neck goes out with
+        # the tilt's transforms, at their stamps (no timer of its own then)
+        stamps = []
+        end = time.monotonic() + 1.5
+        while time.monotonic() < end:
+            m = JointState()
+            m.header.stamp = rospy.Time.now()
+            m.name = ["head_tilt_joint"]
+            m.position = [0.3]
+            self.pub.publish(m)
+            stamps.append(m.header.stamp)
+            time.sleep(0.005)
+        self.assertTrue(self.buffer.can_transform("base_footprint", "laser", stamps[-40], rospy.Duration(2.0)))
+        self.assertAlmostEqual(self.neck_pitch(), 0.25, places=4)
+        neck = self.buffer.lookup_transform("neck_y_link", "neck_p_link", rospy.Time(0))
+        self.assertIn(neck.header.stamp, stamps, "the latest held neck is not at a joint state's stamp")
+        # then silent: the timer holds the neck again, at the clock's stamps
+        time.sleep(1.5)
+        neck = self.buffer.lookup_transform("neck_y_link", "neck_p_link", rospy.Time(0))
+        self.assertGreater(neck.header.stamp, stamps[-1] + rospy.Duration(0.5))
 
 
 if __name__ == "__main__":

@@ -138,8 +138,8 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     states.callback_queue = &inline_queue_;
     states.allow_concurrent_callbacks = true;  // serialized by mutex_
     sub_ = nh.subscribe(states);
-    if (!held_.empty())
-      hold_timer_ = nh.createTimer(ros::Duration(1.0 / std::max(1.0, rate)), &HeadStatePublisherNodelet::onHold, this);
+    hold_period_ = ros::Duration(1.0 / std::max(1.0, rate));
+    if (!held_.empty()) hold_timer_ = nh.createTimer(hold_period_, &HeadStatePublisherNodelet::onHold, this);
     NODELET_INFO("%s: %zu fixed transforms published, %zu moving joints followed, %zu held while nobody gives them",
                  getName().c_str(), statics.size(), moving_.size(), held_.size());
   }
@@ -164,22 +164,38 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     if (m && !m->transforms.empty()) tf_pub_.publish(m);
   }
 
+  /// The held joints nobody gives now (wall time `now`) into m at `stamp`;
+  /// each change between holding and following is logged (mutex_ held).
+  void addHeld(double now, const ros::Time& stamp, tf2_msgs::TFMessage& m) {
+    for (Held& h : held_) {
+      const bool holding = h.hold.holding(now);
+      if (!h.said || holding != h.holding) {
+        if (holding) NODELET_INFO("%s: nobody gives %s: holding it at %.3f rad", getName().c_str(), h.joint.c_str(), h.position);
+        else NODELET_INFO("%s: %s is given: following it", getName().c_str(), h.joint.c_str());
+        h.said = true;
+        h.holding = holding;
+      }
+      if (holding) m.transforms.push_back(transform(moving_.at(h.joint), h.position, stamp));
+    }
+  }
+
+  /// While joint states come, the held joints go out with the transforms
+  /// they give (same message, same stamp: follow); the timer gives them, at
+  /// ~hold/rate, only after none came for 0.25 s (the driver down), and
+  /// meanwhile looks every 0.5 s instead of waking the process ~hold/rate
+  /// times a second for nothing.
   void onHold(const ros::TimerEvent&) {
     const double now = ros::WallTime::now().toSec();
-    const ros::Time stamp = ros::Time::now();
     auto m = boost::make_shared<tf2_msgs::TFMessage>();
     {
       std::lock_guard<std::mutex> l(mutex_);
-      for (Held& h : held_) {
-        const bool holding = h.hold.holding(now);
-        if (!h.said || holding != h.holding) {
-          if (holding) NODELET_INFO("%s: nobody gives %s: holding it at %.3f rad", getName().c_str(), h.joint.c_str(), h.position);
-          else NODELET_INFO("%s: %s is given: following it", getName().c_str(), h.joint.c_str());
-          h.said = true;
-          h.holding = holding;
-        }
-        if (holding) m->transforms.push_back(transform(moving_.at(h.joint), h.position, stamp));
+      const bool states_flow = now - held_sent_ < 0.25;
+      if (states_flow != slow_hold_) {
+        slow_hold_ = states_flow;
+        hold_timer_.setPeriod(states_flow ? ros::Duration(0.5) : hold_period_);
       }
+      if (states_flow) return;
+      addHeld(now, ros::Time::now(), *m);
     }
     send(m);
   }
@@ -237,9 +253,16 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
         if (!m) m = boost::make_shared<tf2_msgs::TFMessage>();
         m->transforms.push_back(transform(mv, js->position[i], stamp));
       }
+      const double wall = ros::WallTime::now().toSec();
       for (Held& h : held_)
-        if (std::find(js->name.begin(), js->name.end(), h.joint) != js->name.end()) h.hold.seen(ros::WallTime::now().toSec());
-      if (m) transforms_out_.add(now);
+        if (std::find(js->name.begin(), js->name.end(), h.joint) != js->name.end()) h.hold.seen(wall);
+      if (m) {
+        transforms_out_.add(now);
+        if (!held_.empty()) {
+          addHeld(wall, js->header.stamp, *m);
+          held_sent_ = wall;
+        }
+      }
     }
     send(m);
   }
@@ -272,6 +295,9 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
   std::map<std::string, Moving> moving_;
   std::vector<Held> held_;
   ros::Timer hold_timer_, diag_timer_;
+  ros::Duration hold_period_;
+  double held_sent_ = -1e300;  // wall time follow() last gave the held joints
+  bool slow_hold_ = false;     // the hold timer at 0.5 s: joint states flow
   InputHealth health_;
   core::StampLimits stamp_limits_;
   core::WindowCounter states_in_, transforms_out_;

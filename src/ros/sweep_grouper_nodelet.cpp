@@ -148,7 +148,10 @@ void SweepGrouperNodelet::onInit() {
   joints.callback_queue = &joint_queue_;
   joints.allow_concurrent_callbacks = true;  // onJointInline only takes inbox_mutex_
   joint_sub_ = nh.subscribe(joints);
-  poll_timer_ = nh.createTimer(ros::Duration(0.05), [this](const ros::TimerEvent&) {
+  // A backstop: every scan polls, and a line that waits for joint states or
+  // a pose is woken when they come; the timer drains the inbox and gives up
+  // on what waits in vain while no scans come.
+  poll_timer_ = nh.createTimer(ros::Duration(0.25), [this](const ros::TimerEvent&) {
     std::lock_guard<std::mutex> l(mutex_);
     guarded("poll", [&] { pollSweeps(); });
   });
