@@ -245,6 +245,41 @@ TEST(Split, AVeilOfMixedPixelsMakesNoSegmentAndIsMarked) {
   EXPECT_TRUE(occluded);
 }
 
+TEST(Split, AShortPieceAlongItsRayIsAVeilToo) {
+  // split_room --realistic, seed 1: a wall at 6.1 m, a nearer one from
+  // 5.86 m, and between them the footprint's blend (378-380). Each beam
+  // has one step to a neighbour short of the 15 degree test (8.5 cm and
+  // 6.2 cm, about 17 and 23 degrees of a 2.6 cm beam spacing), so no beam is
+  // a veil point; the split made 378-382 a segment 14.7 degrees off its ray.
+  SyntheticScan s({});
+  const float real[] = {6.091f, 6.134f, 6.156f, 6.179f, 6.094f, 5.921f, 5.859f, 5.826f, 5.786f, 5.767f, 5.749f};
+  for (int i = 355; i < 375; ++i) s.ranges[i] = 6.091f - 0.03f * (375 - i);  // the far wall before
+  for (int k = 0; k < 11; ++k) s.ranges[375 + k] = real[k];
+  for (int i = 386; i < 405; ++i) s.ranges[i] = 5.749f - 0.02f * (i - 385);  // the near wall after
+  SplitParams footprint_only;
+  footprint_only.veil_max_beams = 4;  // the piece's 5 beams are then allowed: the split as before
+  ScanSplitter before(footprint_only), splitter;
+  SplitResult r;
+  ASSERT_EQ(before.split(s.view(), r), ScanError::None);
+  EXPECT_EQ(r.veil_points, 0);
+  int toward = 0;
+  for (const auto& seg : r.segments) toward += segmentBeamAngle(seg) < 15.0 * kDeg;
+  EXPECT_EQ(toward, 1);
+  ASSERT_EQ(splitter.split(s.view(), r), ScanError::None);
+  for (const auto& seg : r.segments) {
+    EXPECT_GT(segmentBeamAngle(seg), 15.0 * kDeg) << seg.first << "-" << seg.last;
+    EXPECT_TRUE(seg.last < 378 || seg.first > 380) << seg.first << "-" << seg.last;
+  }
+  EXPECT_GE(r.veil_points, 3);
+  // The walls beside it meet at a depth edge: the far one's end occluded, the near one's start a jump.
+  std::vector<std::pair<int, EdgeKind>> kinds;
+  for (const auto& e : r.edges)
+    if (e.kind != EdgeKind::Veil && e.index > 365 && e.index < 395) kinds.emplace_back(e.index, e.kind);
+  ASSERT_EQ(kinds.size(), 2u);
+  EXPECT_EQ(kinds[0].second, EdgeKind::Occluded);
+  EXPECT_EQ(kinds[1].second, EdgeKind::Jump);
+}
+
 TEST(Split, AFloorAtGrazingIncidenceIsNoVeil) {
   // A wall seen 8 degrees off its surface over 60 beams: every beam's
   // neighbours lie along its ray, but the run is far longer than a

@@ -187,7 +187,7 @@ ScanError ScanSplitter::split(const ScanView& scan, SplitResult& out) {
   }
   for (const Run& run : runs_)
     if (run.last - run.first + 1 >= params_.min_points) splitRun(run, out);
-  if (out.veil_points > 0)  // veil marks were added first: back into beam order
+  if (out.veil_points > 0)  // veil marks were added apart from the runs' edges: back into beam order
     std::stable_sort(out.edges.begin(), out.edges.end(),
                      [](const EdgePoint& a, const EdgePoint& b) { return a.index < b.index; });
   return ScanError::None;
@@ -284,21 +284,53 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
     }
   }
 
+  // A short piece along its own ray is a veil the per-beam test let through
+  // (a step just short of its angle, a footprint's blend of the two sides):
+  // the same rule as markVeils' at the scale of a piece. Its beams are veil
+  // points, and the pieces beside it meet at a depth edge, not a crease.
+  const double cos_veil = std::cos(params_.veil_angle_deg * M_PI / 180.0);
+  const auto alongRay = [&](const Segment& g) {
+    const Eigen::Vector2d mid = 0.5 * (g.start + g.end);
+    return params_.veil_angle_deg > 0.0 && g.count <= params_.veil_max_beams && mid.norm() > 0.0 &&
+           std::abs(g.direction.dot(mid.normalized())) >= cos_veil;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   const std::size_t first_seg = out.segments.size();
+  veil_before_.clear();  // per kept segment: the beams [k, first) before it were a veil (k; -1: none)
+  int veil_from = -1, veil_to = -1;
   for (const auto& [a, b] : pieces_) {
     if (b - a + 1 < params_.min_points) continue;
     out.segments.emplace_back();
     fitSegment(a, b, out.segments.back());
+    if (alongRay(out.segments.back())) {
+      out.segments.pop_back();
+      for (int k = a; k <= b; ++k) {
+        out.edges.push_back(EdgePoint{k, EdgeKind::Veil, nan, Eigen::Vector2d(x_[k], y_[k])});
+        ++out.veil_points;
+      }
+      if (veil_from < 0) veil_from = a;
+      veil_to = b;
+      continue;
+    }
+    veil_before_.push_back(veil_from);
+    veil_from = -1;
   }
   const std::size_t end_seg = out.segments.size();
   if (first_seg == end_seg) return;
 
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // The kind of the edge on a's side of a veil whose other side is at range r_other.
+  const auto besideVeil = [&](int a, double r_other) { return r_[a] < r_other ? EdgeKind::Jump : EdgeKind::Occluded; };
   const Segment& head = out.segments[first_seg];
-  out.edges.push_back(EdgePoint{head.first, run.start_kind, nan, head.start});
+  const int v0 = veil_before_[0];
+  out.edges.push_back(EdgePoint{head.first, v0 < 0 ? run.start_kind : besideVeil(head.first, r_[v0]), nan, head.start});
   for (std::size_t s = first_seg + 1; s < end_seg; ++s) {
     const Segment& p = out.segments[s - 1];
     const Segment& q = out.segments[s];
+    if (veil_before_[s - first_seg] >= 0) {
+      out.edges.push_back(EdgePoint{p.last, besideVeil(p.last, r_[q.first]), nan, p.end});
+      out.edges.push_back(EdgePoint{q.first, besideVeil(q.first, r_[p.last]), nan, q.start});
+      continue;
+    }
     const double angle = std::acos(std::clamp(p.direction.dot(q.direction), -1.0, 1.0));
     if (q.first == p.last + 1) {
       out.edges.push_back(EdgePoint{p.last, EdgeKind::Crease, angle, creasePoint(p, q)});
@@ -308,7 +340,8 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
     }
   }
   const Segment& tail = out.segments[end_seg - 1];
-  out.edges.push_back(EdgePoint{tail.last, run.end_kind, nan, tail.end});
+  out.edges.push_back(
+      EdgePoint{tail.last, veil_from < 0 ? run.end_kind : besideVeil(tail.last, r_[veil_to]), nan, tail.end});
 }
 
 double segmentOverhang(const ScanView& scan, const Segment& seg) {
