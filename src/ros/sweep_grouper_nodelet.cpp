@@ -224,7 +224,7 @@ bool SweepGrouperNodelet::setupChain() {
 
 void SweepGrouperNodelet::onJointInline(const sensor_msgs::JointStateConstPtr& js) {
   std::lock_guard<std::mutex> l(inbox_mutex_);
-  // Bounded: the worker drains it every poll (50 ms); full, it is stuck, and
+  // Bounded: the worker drains it at every scan and poll; full, it is stuck, and
   // the newest are dropped (counted) rather than the memory grown.
   if (inbox_.size() >= kInboxMax) {
     ++inbox_dropped_;
