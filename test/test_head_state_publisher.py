@@ -27,6 +27,11 @@ class HeadStatePublisher(unittest.TestCase):
         self.buffer = tf2_ros.Buffer()
         self.listener = tf2_ros.TransformListener(self.buffer)
         self.pub = rospy.Publisher("joint_states", JointState, queue_size=10)
+        self.neck_stamps = []  # stamps of the neck pitch's transforms on /tf, as they come
+        rospy.Subscriber("/tf", TFMessage, self.on_tf, queue_size=100)
+
+    def on_tf(self, m):
+        self.neck_stamps.extend(t.header.stamp.to_nsec() for t in m.transforms if t.child_frame_id == "neck_p_link")
 
     def neck_pitch(self, timeout=5.0):
         self.buffer.can_transform("neck_y_link", "neck_p_link", rospy.Time(0), rospy.Duration(timeout))
@@ -59,6 +64,7 @@ class HeadStatePublisher(unittest.TestCase):
         # the tilt's transforms, at their stamps (no timer of its own then)
         stamps = []
         end = time.monotonic() + 1.5
+        del self.neck_stamps[:]
         while time.monotonic() < end:
             m = JointState()
             m.header.stamp = rospy.Time.now()
@@ -67,10 +73,15 @@ class HeadStatePublisher(unittest.TestCase):
             self.pub.publish(m)
             stamps.append(m.header.stamp)
             time.sleep(0.005)
+        time.sleep(0.1)
+        given = set(t.to_nsec() for t in stamps)
+        neck = list(self.neck_stamps)
         self.assertTrue(self.buffer.can_transform("base_footprint", "laser", stamps[-40], rospy.Duration(2.0)))
         self.assertAlmostEqual(self.neck_pitch(), 0.25, places=4)
-        neck = self.buffer.lookup_transform("neck_y_link", "neck_p_link", rospy.Time(0))
-        self.assertIn(neck.header.stamp, stamps, "the latest held neck is not at a joint state's stamp")
+        riders = sum(t in given for t in neck)
+        # ~50 a second with the tilt's; the timer's (at the clock's stamps) at most at the phase's edges
+        self.assertGreater(len(neck), 30)
+        self.assertGreater(riders, 0.8 * len(neck), "%d of %d held neck transforms at a joint state's stamp" % (riders, len(neck)))
         # then silent: the timer holds the neck again, at the clock's stamps
         time.sleep(1.5)
         neck = self.buffer.lookup_transform("neck_y_link", "neck_p_link", rospy.Time(0))
