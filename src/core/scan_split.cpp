@@ -102,7 +102,12 @@ ScanError checkScan(const ScanView& scan, const ScanLimits& limits) {
   return ScanError::None;
 }
 
-ScanSplitter::ScanSplitter(const SplitParams& params) : params_(params) {}
+ScanSplitter::ScanSplitter(const SplitParams& params) { setParams(params); }
+
+void ScanSplitter::setParams(const SplitParams& params) {
+  params_ = params;
+  cos_veil_ = std::cos(params_.veil_angle_deg * M_PI / 180.0);
+}
 
 void ScanSplitter::updateTrig(const ScanView& scan) {
   if (cos_.size() == scan.size && trig_angle_min_ == scan.angle_min && trig_increment_ == scan.angle_increment)
@@ -288,11 +293,10 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
   // (a step just short of its angle, a footprint's blend of the two sides):
   // the same rule as markVeils' at the scale of a piece. Its beams are veil
   // points, and the pieces beside it meet at a depth edge, not a crease.
-  const double cos_veil = std::cos(params_.veil_angle_deg * M_PI / 180.0);
   const auto alongRay = [&](const Segment& g) {
     const Eigen::Vector2d mid = 0.5 * (g.start + g.end);
     return params_.veil_angle_deg > 0.0 && g.count <= params_.veil_max_beams && mid.norm() > 0.0 &&
-           std::abs(g.direction.dot(mid.normalized())) >= cos_veil;
+           std::abs(g.direction.dot(mid.normalized())) >= cos_veil_;
   };
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const std::size_t first_seg = out.segments.size();

@@ -229,22 +229,10 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
         return;  // none of the head's joints (the robot's others)
       if (first_state_ < 0.0) first_state_ = now;
       states_in_.add(now);
-      if (js->name.size() != js->position.size()) {
-        health_.refuse("joint_states: name and position differ in length",
-                       std::to_string(js->name.size()) + " names, " + std::to_string(js->position.size()) + " positions");
-        return;
-      }
-      if (const char* bad = core::checkStamp(js->header.stamp.toSec(), now, stamp_limits_)) {
-        health_.refuse(std::string("joint_states: ") + bad, std::to_string(js->header.stamp.toSec()));
-        return;
-      }
+      if (!health_.acceptJointState(*js, stamp_limits_)) return;
       for (std::size_t i = 0; i < js->name.size(); ++i) {
         const auto it = moving_.find(js->name[i]);
-        if (it == moving_.end()) continue;
-        if (const char* bad = core::checkJointPosition(js->position[i])) {
-          health_.refuse(std::string("joint_states: ") + bad, js->name[i]);
-          continue;
-        }
+        if (it == moving_.end() || !health_.acceptJointPosition(*js, i)) continue;
         Moving& mv = it->second;
         const ros::Time& stamp = js->header.stamp;
         if (stamp < mv.last) mv.last = ros::Time();  // the clock went back (a bag looped): start again

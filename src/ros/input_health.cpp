@@ -44,6 +44,28 @@ void InputHealth::refuse(const std::string& reason, const std::string& detail, u
            detail.c_str(), total);
 }
 
+bool InputHealth::acceptJointState(const sensor_msgs::JointState& js, const core::StampLimits& limits) {
+  if (js.name.size() != js.position.size()) {
+    refuse("joint_states: name and position differ in length",
+           std::to_string(js.name.size()) + " names, " + std::to_string(js.position.size()) + " positions");
+    return false;
+  }
+  const double t = js.header.stamp.toSec();
+  if (const char* bad = core::checkStamp(t, now(), limits)) {
+    refuse(std::string("joint_states: ") + bad, std::to_string(t));
+    return false;
+  }
+  return true;
+}
+
+bool InputHealth::acceptJointPosition(const sensor_msgs::JointState& js, std::size_t i) {
+  if (const char* bad = core::checkJointPosition(js.position[i])) {
+    refuse(std::string("joint_states: ") + bad, js.name[i] + " " + std::to_string(js.position[i]));
+    return false;
+  }
+  return true;
+}
+
 unsigned long InputHealth::sequence(const std::string& publisher, std::uint32_t seq) {
   if (gaps_.size() >= 16 && gaps_.find(publisher) == gaps_.end()) gaps_.clear();  // publishers come and go
   return gaps_[publisher].add(seq);

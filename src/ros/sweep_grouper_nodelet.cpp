@@ -1,5 +1,6 @@
 #include "tilt_laser_perception/ros/sweep_grouper_nodelet.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include <boost/make_shared.hpp>
@@ -256,27 +257,15 @@ void SweepGrouperNodelet::addJoint(const sensor_msgs::JointState& js) {
     warn(chain_error_);
     return;
   }
-  // Every field that is read is checked: names and positions pair up, the
-  // stamp is set and near the clock, the tilt's position is a real angle.
-  if (js.name.size() != js.position.size()) {
-    health_.refuse("joint_states: name and position differ in length",
-                   std::to_string(js.name.size()) + " names, " + std::to_string(js.position.size()) + " positions");
-    return;
-  }
-  for (std::size_t i = 0; i < js.name.size(); ++i) {
-    if (js.name[i] != joint_name_) continue;
-    const double t = js.header.stamp.toSec();
-    if (const char* bad = core::checkStamp(t, InputHealth::now(), stamp_limits_)) {
-      health_.refuse(std::string("joint_states: ") + bad, std::to_string(t));
-      return;
-    }
-    if (const char* bad = core::checkJointPosition(js.position[i])) {
-      health_.refuse(std::string("joint_states: ") + bad, std::to_string(js.position[i]));
-      return;
-    }
-    assembler_->addJoint(t, js.position[i]);
-    if (watch_) watch_->addJoint(t, js.position[i]);
-  }
+  // Every field that is read is checked (InputHealth): names and positions
+  // pair up, the stamp is set and near the clock, the tilt's position is a real angle.
+  const auto it = std::find(js.name.begin(), js.name.end(), joint_name_);
+  if (it == js.name.end() || !health_.acceptJointState(js, stamp_limits_)) return;
+  const std::size_t i = it - js.name.begin();
+  if (!health_.acceptJointPosition(js, i)) return;
+  const double t = js.header.stamp.toSec();
+  assembler_->addJoint(t, js.position[i]);
+  if (watch_) watch_->addJoint(t, js.position[i]);
 }
 
 void SweepGrouperNodelet::onScanIn(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {

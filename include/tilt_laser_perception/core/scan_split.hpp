@@ -187,7 +187,7 @@ class ScanSplitter {
   explicit ScanSplitter(const SplitParams& params = SplitParams());
 
   /// Replaces the settings (must be valid: see SplitParams::validate).
-  void setParams(const SplitParams& params) { params_ = params; }
+  void setParams(const SplitParams& params);
   const SplitParams& params() const { return params_; }
   void setLimits(const ScanLimits& limits) { limits_ = limits; }
   const ScanLimits& limits() const { return limits_; }
@@ -212,6 +212,7 @@ class ScanSplitter {
   static Eigen::Vector2d creasePoint(const Segment& p, const Segment& q);  // point i to the line fitted to [first, last]
 
   SplitParams params_;
+  double cos_veil_ = 1.0;  // cos(veil_angle_deg), set with params_
   ScanLimits limits_;
   // per-beam buffers
   std::vector<double> cos_, sin_, x_, y_, r_;

@@ -14,6 +14,7 @@
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <ros/ros.h>
+#include <sensor_msgs/JointState.h>
 
 #include "tilt_laser_perception/core/input_check.hpp"
 #include "tilt_laser_perception/core/sequence.hpp"
@@ -31,6 +32,11 @@ class InputHealth {
   void init(const std::string& name, ros::NodeHandle& pnh, double window = 10.0);
   /// Counts k refused (or dropped) inputs and warns, at most every 5 s per reason.
   void refuse(const std::string& reason, const std::string& detail = std::string(), unsigned long k = 1);
+  /// A joint state's own fields, for a reader of some of its joints: names
+  /// and positions pair up, the stamp is set and near the clock. False: refused (counted).
+  bool acceptJointState(const sensor_msgs::JointState& js, const core::StampLimits& limits);
+  /// One joint's position is a real angle (core::checkJointPosition). False: refused (counted).
+  bool acceptJointPosition(const sensor_msgs::JointState& js, std::size_t i);
   /// Scan lines lost upstream, counted per publisher (a second publisher on
   /// the topic numbers its own messages); returns how many were missed.
   unsigned long sequence(const std::string& publisher, std::uint32_t seq);
