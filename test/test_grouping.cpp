@@ -230,6 +230,103 @@ TEST(Grouping, AStepGivesTreadRiserAndFloor) {
   EXPECT_NEAR(step.riser->fit.centroid.z(), 0.05, 1e-9);
 }
 
+namespace {
+double minCoord(const std::vector<Eigen::Vector3d>& ring, int axis) {
+  double m = 1e300;
+  for (const auto& v : ring) m = std::min(m, v[axis]);
+  return m;
+}
+double maxCoord(const std::vector<Eigen::Vector3d>& ring, int axis) {
+  double m = -1e300;
+  for (const auto& v : ring) m = std::max(m, v[axis]);
+  return m;
+}
+}  // namespace
+
+TEST(Grouping, PolygonsReachTheirCreaseToWithinTheMargin) {
+  // The step above: the floor's lines end 5 cm before the riser's foot
+  // (x = 1.35; the line at 1.40 went to the riser), the riser's lines lie
+  // 5 cm above its foot and below its top, the tread's first line 5 cm
+  // behind its nosing. Each polygon is carried to 5 mm from the crease.
+  std::vector<std::vector<Segment3>> lines = floorLines(9, 1.0, 0.05, 0.0, -0.6, 0.6);
+  lines.push_back({seg(9, 100, {1.4, -0.6, 0.05}, {1.4, 0.6, 0.05})});
+  lines.push_back({seg(10, 100, {1.4, -0.6, 0.10}, {1.4, 0.6, 0.10})});
+  for (int k = 0; k < 6; ++k) lines.push_back({seg(11 + k, 100, {1.45 + 0.06 * k, -0.6, 0.15}, {1.45 + 0.06 * k, 0.6, 0.15})});
+  for (const double reach : {0.0, 0.08}) {
+    GroupingParams p;
+    p.crease_reach = reach;
+    ScanLineGrouper g(p);
+    const auto planes = group(lines, g);
+    ASSERT_EQ(planes.size(), 3u);
+    const StepPlanes step = stepPlanes(planes, 0.15);
+    ASSERT_TRUE(step.riser && step.tread);
+    const Plane* floor = nullptr;
+    for (const auto& q : planes)
+      if (&q != step.riser && &q != step.tread) floor = &q;
+    if (reach == 0.0) {  // as the lines left them
+      EXPECT_NEAR(maxCoord(floor->boundary, 0), 1.35, 1e-9);
+      EXPECT_NEAR(minCoord(step.tread->boundary, 0), 1.45, 1e-9);
+      EXPECT_NEAR(minCoord(step.riser->boundary, 2), 0.0, 1e-9);  // the floor's line on the crease went to it
+      EXPECT_NEAR(maxCoord(step.riser->boundary, 2), 0.10, 1e-9);
+      continue;
+    }
+    EXPECT_NEAR(maxCoord(floor->boundary, 0), 1.395, 1e-6);
+    EXPECT_NEAR(minCoord(floor->boundary, 0), 1.0, 1e-9);  // its far end has no crease
+    EXPECT_NEAR(minCoord(step.tread->boundary, 0), 1.405, 1e-6);
+    EXPECT_NEAR(maxCoord(step.tread->boundary, 0), 1.75, 1e-9);
+    EXPECT_NEAR(minCoord(step.riser->boundary, 2), 0.0, 1e-9);  // already within the margin: stays
+    EXPECT_NEAR(maxCoord(step.riser->boundary, 2), 0.145, 1e-6);
+    EXPECT_NEAR(step.tread->area, 1.2 * (1.75 - 1.405), 1e-6);
+    EXPECT_NEAR(floor->area, 1.2 * (1.395 - 1.0), 1e-6);
+    // Nothing moves sideways.
+    for (const Plane* q : {floor, step.tread, step.riser}) {
+      EXPECT_NEAR(minCoord(q->boundary, 1), -0.6, 1e-9);
+      EXPECT_NEAR(maxCoord(q->boundary, 1), 0.6, 1e-9);
+    }
+  }
+}
+
+TEST(Grouping, PlanesThatDoNotMeetKeepTheirPolygons) {
+  // A tread and a wall: the wall 0.2 m beyond the tread's end, farther than
+  // the reach; then 6 cm beyond it, but beside another stretch of their
+  // common line; then at 10 degrees to the tread (no crease).
+  const auto plane = [](const Eigen::Vector3d& n, const std::vector<Eigen::Vector3d>& ring) {
+    Plane p;
+    p.fit.normal = n.normalized();
+    p.fit.centroid = Eigen::Vector3d::Zero();
+    for (const auto& v : ring) p.fit.centroid += v / ring.size();
+    p.fit.offset = p.fit.normal.dot(p.fit.centroid);
+    p.boundary = ring;
+    p.area = 1.0;
+    return p;
+  };
+  const Plane tread = plane({0, 0, 1}, {{1.0, -0.5, 0.15}, {1.0, 0.5, 0.15}, {1.3, 0.5, 0.15}, {1.3, -0.5, 0.15}});
+  const auto wall = [&](double x, double y0, double y1) {
+    return plane({-1, 0, 0}, {{x, y0, 0.2}, {x, y1, 0.2}, {x, y1, 0.5}, {x, y0, 0.5}});
+  };
+  for (const Plane& w : {wall(1.5, -0.5, 0.5), wall(1.36, 0.8, 1.5)}) {
+    std::vector<Plane> planes{tread, w};
+    closeCreases(planes, 0.08, 0.005, 15.0);
+    EXPECT_EQ(planes[0].boundary, tread.boundary);
+    EXPECT_EQ(planes[1].boundary, w.boundary);
+  }
+  {  // the same wall 6 cm beyond the tread: both are carried
+    std::vector<Plane> planes{tread, wall(1.36, -0.5, 0.5)};
+    closeCreases(planes, 0.08, 0.005, 15.0);
+    EXPECT_NEAR(maxCoord(planes[0].boundary, 0), 1.355, 1e-9);
+    EXPECT_NEAR(minCoord(planes[1].boundary, 2), 0.155, 1e-9);
+    EXPECT_NEAR(planes[0].area, 1.0 + 1.0 * 0.055, 1e-9);
+  }
+  const double a = 10.0 * M_PI / 180.0;
+  const Plane ramp = plane({-std::sin(a), 0, std::cos(a)}, {{1.31, -0.5, 0.15}, {1.31, 0.5, 0.15},
+                                                            {1.6, 0.5, 0.15 + 0.29 * std::tan(a)},
+                                                            {1.6, -0.5, 0.15 + 0.29 * std::tan(a)}});
+  std::vector<Plane> planes{tread, ramp};
+  closeCreases(planes, 0.08, 0.005, 15.0);
+  EXPECT_EQ(planes[0].boundary, tread.boundary);
+  EXPECT_EQ(planes[1].boundary, ramp.boundary);
+}
+
 TEST(Grouping, ANoseLineNearTheRiserGoesToTheTread) {
   // The riser x = 1.4 is crossed by two lines (z 0.05, 0.10); the next line
   // hits the tread (z 0.15) 6 mm behind the nose: within the riser's

@@ -164,6 +164,8 @@ std::string GroupingParams::validate() const {
   else if (!(merge_angle_deg > 0.0 && merge_angle_deg < 90.0)) s << "merge_angle_deg must be in (0, 90)";
   else if (max_line_gap < 1) s << "max_line_gap must be >= 1";
   else if (min_segments < 1) s << "min_segments must be >= 1";
+  else if (!(crease_reach >= 0.0 && crease_reach < 1.0)) s << "crease_reach must be in [0, 1)";
+  else if (!(crease_margin >= 0.0 && crease_margin < 1.0)) s << "crease_margin must be in [0, 1)";
   return s.str();
 }
 
@@ -699,6 +701,77 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     for (int m : p.members) seg_plane_[m] = p.id;
     planes.push_back(std::move(p));
   }
+  if (p_.crease_reach > p_.crease_margin) closeCreases(planes, p_.crease_reach, p_.crease_margin, p_.merge_angle_deg);
+}
+
+void closeCreases(std::vector<Plane>& planes, double reach, double margin, double min_angle_deg) {
+  const std::size_t n = planes.size();
+  // Boxes around the polygons: pairs farther apart than the reach never meet.
+  std::vector<Eigen::AlignedBox3d> box(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (const Eigen::Vector3d& v : planes[i].boundary) box[i].extend(v);
+  const double max_cos = std::cos(min_angle_deg * kDeg);
+  // A corner and where it goes.
+  struct Move {
+    std::size_t plane, corner;
+    Eigen::Vector3d to;
+  };
+  std::vector<Move> moves;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      if (box[i].isEmpty() || box[j].isEmpty() || box[i].exteriorDistance(box[j]) > reach) continue;
+      const PlaneFit &fa = planes[i].fit, &fb = planes[j].fit;
+      const double c = fa.normal.dot(fb.normal);
+      if (std::abs(c) > max_cos) continue;
+      const Eigen::Vector3d d = fa.normal.cross(fb.normal).normalized();
+      const Eigen::Vector3d x0 =
+          ((fa.offset - fb.offset * c) * fa.normal + (fb.offset - fa.offset * c) * fb.normal) / (1.0 - c * c);
+      // The common line is x0 + t d. Each polygon's side of it, and the
+      // stretch of it that the polygon reaches.
+      struct Side {
+        Eigen::Vector3d u;  // in the plane, at right angles to the line, towards its centroid
+        double lo = 1e300, hi = -1e300;  // along d, of the corners within reach
+        bool meets = false;
+      };
+      const auto side = [&](const Plane& p) {
+        Side s;
+        s.u = d.cross(p.fit.normal);
+        if (s.u.dot(p.fit.centroid - x0) < 0.0) s.u = -s.u;
+        double nearest = 1e300;
+        for (const Eigen::Vector3d& v : p.boundary) {
+          const double dist = s.u.dot(v - x0);
+          nearest = std::min(nearest, dist);
+          if (std::abs(dist) <= reach) {
+            const double t = d.dot(v - x0);
+            s.lo = std::min(s.lo, t);
+            s.hi = std::max(s.hi, t);
+          }
+        }
+        s.meets = nearest >= -reach && nearest <= reach;
+        return s;
+      };
+      const Side sa = side(planes[i]), sb = side(planes[j]);
+      if (!sa.meets || !sb.meets) continue;
+      const auto carry = [&](std::size_t k, const Side& own, const Side& other) {
+        const std::vector<Eigen::Vector3d>& ring = planes[k].boundary;
+        for (std::size_t v = 0; v < ring.size(); ++v) {
+          const double dist = own.u.dot(ring[v] - x0), t = d.dot(ring[v] - x0);
+          if (dist > margin && dist <= reach && t >= other.lo - reach && t <= other.hi + reach)
+            moves.push_back({k, v, ring[v] - (dist - margin) * own.u});
+        }
+      };
+      carry(i, sa, sb);
+      carry(j, sb, sa);
+    }
+  // Moved after every pair was judged by the polygons as they were.
+  std::vector<double> outer(n, -1.0);  // the outer polygon's area before, of those that change
+  for (const Move& m : moves) {
+    Plane& p = planes[m.plane];
+    if (outer[m.plane] < 0.0) outer[m.plane] = polygonArea(p.boundary, p.fit);
+    p.boundary[m.corner] = m.to;
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (outer[i] >= 0.0) planes[i].area = std::max(0.0, planes[i].area + polygonArea(planes[i].boundary, planes[i].fit) - outer[i]);
 }
 
 void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoints& points) {

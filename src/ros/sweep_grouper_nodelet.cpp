@@ -46,6 +46,8 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("merge_angle_deg", g.merge_angle_deg, g.merge_angle_deg);
   pnh.param("min_plane_segments", g.min_segments, g.min_segments);
   pnh.param("min_plane_area", g.min_area, g.min_area);
+  pnh.param("crease_reach", g.crease_reach, g.crease_reach);
+  pnh.param("crease_margin", g.crease_margin, g.crease_margin);
   pnh.param("reversal_hysteresis", sweep_params_.reversal_hysteresis, sweep_params_.reversal_hysteresis);
   pnh.param("max_joint_gap", sweep_params_.max_joint_gap, sweep_params_.max_joint_gap);
   pnh.param("max_wait", sweep_params_.max_wait, sweep_params_.max_wait);

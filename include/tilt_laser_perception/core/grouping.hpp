@@ -54,6 +54,8 @@ struct GroupingParams {
   int min_segments = 2;           ///< smaller planes are dropped (a riser may be crossed by two lines only)
   double min_area = 0.01;         ///< [m^2]
   int min_points = 8;             ///< segments with fewer points than this are left out
+  double crease_reach = 0.08;     ///< two planes' polygons that both end this close to their common line are carried to it (closeCreases) ... [m]
+  double crease_margin = 0.005;   ///< ... up to this far from it; reach <= margin: never [m]
   std::string validate() const;
   double threshold(double range) const { return std::max(dist_min, dist_ratio * range); }
 };
@@ -68,6 +70,19 @@ struct Plane {
   std::vector<Eigen::Vector3d> boundary;               ///< outer polygon, on the plane
   std::vector<std::vector<Eigen::Vector3d>> holes;     ///< hole polygons, on the plane
 };
+
+/// Two planes that meet are bounded by their common line: a polygon ends at
+/// its last scan line, the surface at the crease, which lies between that
+/// line and the other plane's first (the 2-5 cm of a tread next to its riser
+/// that no line reaches). Where the polygons of two planes whose normals
+/// differ by more than `min_angle_deg` both come within `reach` of their
+/// common line (or cross it by no more), the corners of each that lie
+/// between `margin` and `reach` from it, beside the stretch of it that the
+/// other reaches, are moved to `margin` from it, within their plane; areas
+/// follow. The margin is the line's own error: a riser crossed by two or
+/// three lines puts it a few millimetres off, and a tread carried past its
+/// nosing would claim the floor in front.
+void closeCreases(std::vector<Plane>& planes, double reach, double margin, double min_angle_deg);
 
 class ScanLineGrouper {
  public:
