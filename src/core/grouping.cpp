@@ -711,6 +711,16 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
   for (std::size_t i = 0; i < n; ++i)
     for (const Eigen::Vector3d& v : planes[i].boundary) box[i].extend(v);
   const double max_cos = std::cos(min_angle_deg * kDeg);
+  // Whether a box comes within the reach of a plane (the common line lies on it).
+  const auto nearPlane = [reach](const Eigen::AlignedBox3d& b, const PlaneFit& f) {
+    double lo = 1e300, hi = -1e300;
+    for (int k = 0; k < 8; ++k) {
+      const double dist = f.normal.dot(b.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k))) - f.offset;
+      lo = std::min(lo, dist);
+      hi = std::max(hi, dist);
+    }
+    return lo <= reach && hi >= -reach;
+  };
   // A corner and where it goes.
   struct Move {
     std::size_t plane, corner;
@@ -722,7 +732,7 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
       if (box[i].isEmpty() || box[j].isEmpty() || box[i].exteriorDistance(box[j]) > reach) continue;
       const PlaneFit &fa = planes[i].fit, &fb = planes[j].fit;
       const double c = fa.normal.dot(fb.normal);
-      if (std::abs(c) > max_cos) continue;
+      if (std::abs(c) > max_cos || !nearPlane(box[j], fa) || !nearPlane(box[i], fb)) continue;
       const Eigen::Vector3d d = fa.normal.cross(fb.normal).normalized();
       const Eigen::Vector3d x0 =
           ((fa.offset - fb.offset * c) * fa.normal + (fb.offset - fa.offset * c) * fb.normal) / (1.0 - c * c);
