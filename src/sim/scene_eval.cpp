@@ -148,6 +148,7 @@ struct LineTruth {
   int veil_segments = 0;  // segments most of whose points are mixed pixels
   int overhanging = 0;    // segments with own points more than 1 cm beyond their ends
   int mixed = 0, mixed_in_segments = 0;  // mixed pixels, and those in segments
+  std::vector<unsigned char> is_mixed;   // by beam: a mixed pixel
 };
 
 SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_fused, const core::SweepResult& sw,
@@ -192,6 +193,9 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
       if (!std::isfinite(p.x()) ||
           std::hypot(p.x() - base.translation().x(), p.y() - base.translation().y()) > o.eval_radius)
         continue;
+      // A mixed pixel (a range between two faces) measures neither: it is no
+      // face's point, as a careful hand labelling leaves it out.
+      if (!o.judge_mixed && i < t.is_mixed.size() && t.is_mixed[i]) continue;
       ov.add(t.face[i], plane_of[li][i]);
     }
   }
@@ -362,6 +366,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
       for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
       LineTruth lt{hs.scan.face, hs.scan.ranges, hs.scan.edges, split.edges};
       for (const unsigned char m : hs.scan.mixed) lt.mixed += m;
+      lt.is_mixed = hs.scan.mixed;
       for (const auto& s : split.segments) {
         int mixed = 0;
         for (int i = s.first; i <= s.last; ++i) mixed += hs.scan.mixed[i];

@@ -23,6 +23,8 @@ static void usage() {
                "  --calibration FILE  apply calibrate's estimate (joint offset, time offset, mount) to the believed head\n"
                "  --errors-known      apply the rig errors' own values instead (what a perfect calibration gives)\n"
                "  --fused-resolution R  the fused map's cell side [m] (default: the grouper's ~fused_map_resolution)\n"
+               "  --judge-mixed  count mixed pixels (ranges between two faces) as points of the face their beam's\n"
+               "              centre hits; by default they are no face's points and are not judged\n"
                "  --crease-reach M  polygons carried to the crease of two planes that both end this close to it (the\n"
                "              grouper's ~crease_reach; 0: not)\n"
                "  --echo E    the echo the pipeline takes, as the driver's ~echo (first: the single-echo range)\n"
@@ -51,6 +53,7 @@ int main(int argc, char** argv) {
     else if (a == "--no-skew") o.sweep.per_beam = false;
     else if (a == "--no-pose") o.pose_per_line = false;
     else if (a == "--fused-resolution" && v) o.fused.resolution = std::atof(argv[++i]);
+    else if (a == "--judge-mixed") o.judge_mixed = true;
     else if (a == "--crease-reach" && v) o.sweep.grouping.crease_reach = std::atof(argv[++i]);
     else if (a == "--echo" && v) {
       if (!scip::parseEchoChoice(argv[++i], o.echo)) { usage(); return 2; }

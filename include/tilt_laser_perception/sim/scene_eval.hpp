@@ -31,6 +31,9 @@ struct SceneEvalOptions {
   double min_face_area = 0.05;          ///< smaller true faces are not expected [m^2]
   int min_face_points = 50;             ///< nor faces seen with fewer points
   double overlap = 0.8;                 ///< Hoover's tolerance
+  /// Judge mixed pixels as points of the face their beam's centre hits
+  /// (default: not judged, as no face's points).
+  bool judge_mixed = false;
   double heightmap_radius = 3.0;        ///< cells farther than this are not judged [m]
   NoiseParams noise;
   /// The echo the pipeline takes (a multi-echo sensor's driver with ~echo):
@@ -97,7 +100,7 @@ struct SweepEval {
   int overhanging_segments = 0;           ///< segments with own points more than 1 cm beyond their ends
   int mixed_pixels = 0;                   ///< beams whose range lies between two faces (truth)
   int mixed_in_segments = 0;              ///< of them, those the split put in a segment
-  std::vector<std::string> missed_faces;  ///< "object/label" of the faces missed
+  std::vector<std::string> missed_faces;  ///< the faces missed: "object/label (N points: where they went)"
   /// For each missed face, the segments on it or in a plane that took its
   /// points: "line L beams A-B (N points, mostly FACE) -> plane P".
   std::vector<std::string> missed_segments;
