@@ -3,7 +3,8 @@
 state's moving joints on /tf, and the neck at its fixed angles while nobody
 gives it: the neck pitch 0.25 rad (the test's config), then the robot's -0.2
 while it publishes, then 0.25 again once it stops; with the tilt's joint
-states alone (the driver), the held neck at their stamps."""
+states alone (the driver), the held neck at their stamps; and still held
+while the robot's neck comes with NaN positions."""
 import math
 import time
 import unittest
@@ -86,6 +87,26 @@ class HeadStatePublisher(unittest.TestCase):
         time.sleep(1.5)
         neck = self.buffer.lookup_transform("neck_y_link", "neck_p_link", rospy.Time(0))
         self.assertGreater(neck.header.stamp, stamps[-1] + rospy.Duration(0.5))
+        # the robot's neck with NaN positions (refused) beside a good tilt:
+        # not a given neck, so it is still held and the chain stays whole
+        stamps = []
+        del self.neck_stamps[:]
+        end = time.monotonic() + 1.5
+        while time.monotonic() < end:
+            m = JointState()
+            m.header.stamp = rospy.Time.now()
+            m.name = ["NECK_Y", "NECK_P", "head_tilt_joint"]
+            m.position = [float("nan"), float("nan"), 0.4]
+            self.pub.publish(m)
+            stamps.append(m.header.stamp)
+            time.sleep(0.005)
+        # counted as they came during the phase (once it ends, the timer
+        # holds the neck again and tf would interpolate across the gap)
+        given = set(t.to_nsec() for t in stamps)
+        riders = sum(t in given for t in self.neck_stamps)
+        self.assertGreater(riders, 30, "%d held neck transforms at the tilt's stamps while the neck's positions are NaN" % riders)
+        neck = self.buffer.lookup_transform("neck_y_link", "neck_p_link", rospy.Time(0))
+        self.assertAlmostEqual(pitch(neck.transform.rotation), 0.25, places=4)
 
 
 if __name__ == "__main__":

@@ -230,9 +230,14 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
       if (first_state_ < 0.0) first_state_ = now;
       states_in_.add(now);
       if (!health_.acceptJointState(*js, stamp_limits_)) return;
+      const double wall = ros::WallTime::now().toSec();
       for (std::size_t i = 0; i < js->name.size(); ++i) {
         const auto it = moving_.find(js->name[i]);
         if (it == moving_.end() || !health_.acceptJointPosition(*js, i)) continue;
+        // A held joint is given only by a position that can be followed (a
+        // NaN one would stop the hold and leave tf without it).
+        for (Held& h : held_)
+          if (h.joint == js->name[i]) h.hold.seen(wall);
         Moving& mv = it->second;
         const ros::Time& stamp = js->header.stamp;
         if (stamp < mv.last) mv.last = ros::Time();  // the clock went back (a bag looped): start again
@@ -241,9 +246,6 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
         if (!m) m = boost::make_shared<tf2_msgs::TFMessage>();
         m->transforms.push_back(transform(mv, js->position[i], stamp));
       }
-      const double wall = ros::WallTime::now().toSec();
-      for (Held& h : held_)
-        if (std::find(js->name.begin(), js->name.end(), h.joint) != js->name.end()) h.hold.seen(wall);
       if (m) {
         transforms_out_.add(now);
         if (!held_.empty()) {
