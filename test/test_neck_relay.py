@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The NeckRelay nodelet (the neck_relay node) holds the neck joints while the robot is silent about
 them, falls silent while the robot publishes them, and takes over again when
-the robot stops."""
+the robot stops or gives them as NaN or without positions."""
 import threading
 import time
 import unittest
@@ -51,6 +51,20 @@ class NeckRelay(unittest.TestCase):
         back = self.relay_since(t2)
         self.assertGreater(len(back), 20)
         self.assertLess(back[0][0] - t2, 1.0)
+        # the robot's neck with NaN positions, or with names but no
+        # positions: not given, the relay keeps holding it
+        for positions in ([float("nan"), float("nan"), 0.5], []):
+            t3 = time.monotonic()
+            while time.monotonic() - t3 < 1.5:
+                js = JointState()
+                js.header.stamp = rospy.Time.now()
+                js.name = ["NECK_Y", "NECK_P", "R_KNEE_P"]
+                js.position = positions
+                self.pub.publish(js)
+                time.sleep(0.02)
+            kept = self.relay_since(t3 + 0.5)
+            self.assertGreater(len(kept), 30, "positions %s" % positions)  # 50 Hz for 1 s
+            self.assertEqual(kept[-1][1], {"NECK_Y": 0.0, "NECK_P": 0.25})
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/JointState.h>
 
+#include "tilt_laser_perception/core/input_check.hpp"
 #include "tilt_laser_perception/core/joint_hold.hpp"
 
 namespace tilt_laser_perception {
@@ -49,9 +50,15 @@ class NeckRelayNodelet : public nodelet::Nodelet {
     // Our own messages, and those of the nodelets beside us in the manager (the
     // driver's tilt joint), carry this process's name; none of theirs has the neck.
     if (event.getPublisherName() == ros::this_node::getName()) return;
-    const auto& names = event.getConstMessage()->name;
-    for (const auto& j : joints_)
-      if (std::find(names.begin(), names.end(), j) == names.end()) return;
+    // Given only with a position for each that can be followed: a NaN one
+    // (or names without positions) would silence the relay and leave
+    // robot_state_publisher without the neck.
+    const sensor_msgs::JointState& js = *event.getConstMessage();
+    if (js.position.size() != js.name.size()) return;
+    for (const auto& j : joints_) {
+      const auto it = std::find(js.name.begin(), js.name.end(), j);
+      if (it == js.name.end() || core::checkJointPosition(js.position[it - js.name.begin()])) return;
+    }
     hold_.seen(ros::WallTime::now().toSec());
   }
 
