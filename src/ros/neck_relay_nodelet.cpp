@@ -54,10 +54,15 @@ class NeckRelayNodelet : public nodelet::Nodelet {
     // (or names without positions) would silence the relay and leave
     // robot_state_publisher without the neck.
     const sensor_msgs::JointState& js = *event.getConstMessage();
-    if (js.position.size() != js.name.size()) return;
-    for (const auto& j : joints_) {
-      const auto it = std::find(js.name.begin(), js.name.end(), j);
-      if (it == js.name.end() || core::checkJointPosition(js.position[it - js.name.begin()])) return;
+    for (const auto& j : joints_)
+      if (std::find(js.name.begin(), js.name.end(), j) == js.name.end()) return;  // not the neck
+    const char* bad = js.position.size() != js.name.size() ? "names and positions of different lengths" : nullptr;
+    for (std::size_t i = 0; !bad && i < js.name.size(); ++i)
+      if (std::find(joints_.begin(), joints_.end(), js.name[i]) != joints_.end()) bad = core::checkJointPosition(js.position[i]);
+    if (bad) {
+      NODELET_WARN_THROTTLE(5.0, "%s: the neck from %s refused (%s): still holding it", getName().c_str(),
+                            event.getPublisherName().c_str(), bad);
+      return;
     }
     hold_.seen(ros::WallTime::now().toSec());
   }
