@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-
 #include <cmath>
 #include <stdexcept>
 
@@ -446,10 +445,10 @@ TEST(Walk, TheBaseGoesUpTheStepAndTheOdometryDrifts) {
 
 TEST(SceneEval, MixedPixelsAreNoFacesPoints) {
   // The dark box of clutter is seen obliquely, 12-15 beams a line; with a
-  // realistic footprint 20-25 of its 97 points are mixed pixels at its
-  // silhouette, which the split rightly keeps out of segments. Judged as
-  // its points they cost it the 80 % overlap; judged as no face's, it is
-  // found. Either way the same sweep, the same planes.
+  // realistic footprint its silhouette gives mixed pixels, which the split
+  // rightly keeps out of segments. Judged as its points (97 in the first
+  // sweep), its plane holds 71 of them, under the 80 % overlap; judged as no
+  // face's, it is found. Either way the same sweep, the same planes.
   sim::SceneEvalOptions o;
   o.scene = "clutter";
   o.sweeps = 1;
