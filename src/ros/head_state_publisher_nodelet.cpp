@@ -207,54 +207,56 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
   /// subscription's lock; publishing there waits for the publish lock, which
   /// the driver holds while it waits for that subscription's lock to deliver
   /// its own joint state: a deadlock that stopped the whole head (the
-  /// robot's neck from its controller, 1 kHz, did it within 15 s). Those
-  /// are handed to the nodelet's queue.
+  /// robot's neck from its controller, 1 kHz, did it within 15 s). Their
+  /// transforms are built here and only the publish is handed to the
+  /// nodelet's queue: a worker wakes when a transform is due (50 a second),
+  /// not for every joint state.
   void onState(const ros::MessageEvent<sensor_msgs::JointState const>& event) {
-    if (event.getPublisherName() == ros::this_node::getName()) {
-      follow(event.getConstMessage());
-      return;
-    }
-    queue_->addCallback(boost::make_shared<TaskCallback>([this, js = event.getConstMessage()] { follow(js); }), ownerId());
+    auto m = follow(*event.getConstMessage());
+    if (!m) return;
+    if (event.getPublisherName() == ros::this_node::getName()) send(m);
+    else queue_->addCallback(boost::make_shared<TaskCallback>([this, m] { send(m); }), ownerId());
   }
 
-  /// The transforms of the joints of the URDF in one joint state. A stamp
-  /// that is not set, or far from the clock, would go into tf as it is: one
-  /// 50 s ahead makes every listener drop the real ones for 40 s (tf keeps 10 s).
-  void follow(const sensor_msgs::JointStateConstPtr& js) {
+  /// The transforms of the joints of the URDF in one joint state, null when
+  /// none is due. A stamp that is not set, or far from the clock, would go
+  /// into tf as it is: one 50 s ahead makes every listener drop the real
+  /// ones for 40 s (tf keeps 10 s).
+  boost::shared_ptr<tf2_msgs::TFMessage> follow(const sensor_msgs::JointState& js) {
     const double now = InputHealth::now();
     boost::shared_ptr<tf2_msgs::TFMessage> m;  // made only when a transform is due (50 of the 200 a second)
     {
       std::lock_guard<std::mutex> l(mutex_);
-      if (std::none_of(js->name.begin(), js->name.end(), [&](const std::string& n) { return moving_.count(n); }))
-        return;  // none of the head's joints (the robot's others)
+      if (std::none_of(js.name.begin(), js.name.end(), [&](const std::string& n) { return moving_.count(n); }))
+        return m;  // none of the head's joints (the robot's others)
       if (first_state_ < 0.0) first_state_ = now;
       states_in_.add(now);
-      if (!health_.acceptJointState(*js, stamp_limits_)) return;
+      if (!health_.acceptJointState(js, stamp_limits_)) return m;
       const double wall = ros::WallTime::now().toSec();
-      for (std::size_t i = 0; i < js->name.size(); ++i) {
-        const auto it = moving_.find(js->name[i]);
-        if (it == moving_.end() || !health_.acceptJointPosition(*js, i)) continue;
+      for (std::size_t i = 0; i < js.name.size(); ++i) {
+        const auto it = moving_.find(js.name[i]);
+        if (it == moving_.end() || !health_.acceptJointPosition(js, i)) continue;
         // A held joint is given only by a position that can be followed (a
         // NaN one would stop the hold and leave tf without it).
         for (Held& h : held_)
-          if (h.joint == js->name[i]) h.hold.seen(wall);
+          if (h.joint == js.name[i]) h.hold.seen(wall);
         Moving& mv = it->second;
-        const ros::Time& stamp = js->header.stamp;
+        const ros::Time& stamp = js.header.stamp;
         if (stamp < mv.last) mv.last = ros::Time();  // the clock went back (a bag looped): start again
         if (!mv.last.isZero() && stamp < mv.last + interval_) continue;
         mv.last = stamp;
         if (!m) m = boost::make_shared<tf2_msgs::TFMessage>();
-        m->transforms.push_back(transform(mv, js->position[i], stamp));
+        m->transforms.push_back(transform(mv, js.position[i], stamp));
       }
       if (m) {
         transforms_out_.add(now);
         if (!held_.empty()) {
-          addHeld(wall, js->header.stamp, *m);
+          addHeld(wall, js.header.stamp, *m);
           held_sent_ = wall;
         }
       }
     }
-    send(m);
+    return m;
   }
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
