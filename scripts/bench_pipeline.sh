@@ -8,6 +8,9 @@
 # With a second workspace (an earlier release, built by scripts/build.sh with
 # TLP_WS=DIR) both pipelines run at the same time under their own masters, so
 # that a noisy machine weighs on both alike, and the ratio is printed.
+# With TLP_ROBOT_HZ=N a stand-in for the robot's controller
+# (robot_joint_states.py: its 34 joints, the neck among them, N a second from
+# a process of its own, not counted) publishes to each pipeline.
 # usage: bench_pipeline.sh [SECONDS=30] [WARMUP=10] [BASELINE_WS]
 # Goals (issue 18): the package under 5 % of one core, under 100 MB resident.
 set -euo pipefail
@@ -26,6 +29,12 @@ start() {  # workspace, port: starts sim.launch from that workspace; prints rosl
       servo_link:=/tmp/tlp_bench_servo_$port ) >/tmp/tlp_bench_$port.log 2>&1 &
   echo $!
 }
+robot() {  # port: the robot's joint states to the pipeline under that master
+  ( set +u; source "$ws/install/setup.bash"; set -u
+    export ROS_MASTER_URI="http://localhost:$1"
+    sleep 3; exec python3 "$here/scripts/robot_joint_states.py" --rate "$TLP_ROBOT_HZ" ) >/tmp/tlp_bench_robot_$1.log 2>&1 &
+  echo $!
+}
 base_port=$(( 13000 + RANDOM % 500 ))
 runs=("$ws")
 [ -n "$baseline" ] && runs+=("$baseline")
@@ -33,6 +42,7 @@ declare -A launch_of
 for i in "${!runs[@]}"; do
   launch_of[$i]=$(start "${runs[$i]}" $(( base_port + 2 * i )))
   pids+=("${launch_of[$i]}")
+  [ -n "${TLP_ROBOT_HZ:-}" ] && pids+=("$(robot $(( base_port + 2 * i )))")
 done
 trap 'for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null; done; wait 2>/dev/null || true' EXIT
 sleep "$warmup"
@@ -63,7 +73,7 @@ sleep "$window"
 t1=$(date +%s.%N)
 declare -A total_cpu total_rss
 for i in "${!runs[@]}"; do
-  echo "${runs[$i]}: sim.launch on the emulated head (stairs, 40 Hz scans of 1081 beams, grouper on), ${window} s after ${warmup} s:"
+  echo "${runs[$i]}: sim.launch on the emulated head (stairs, 40 Hz scans of 1081 beams, grouper on${TLP_ROBOT_HZ:+, robot joint states at $TLP_ROBOT_HZ Hz}), ${window} s after ${warmup} s:"
   tc=0; tr=0
   for p in ${procs[$i]}; do
     [ -r "/proc/$p/stat" ] || continue
