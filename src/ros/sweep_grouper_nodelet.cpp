@@ -226,6 +226,9 @@ bool SweepGrouperNodelet::setupChain() {
 }
 
 void SweepGrouperNodelet::onJointInline(const sensor_msgs::JointStateConstPtr& js) {
+  // The robot's own joint states (1 kHz, without the tilt) are not the
+  // grouper's: left out here, not carried to the worker.
+  if (std::find(js->name.begin(), js->name.end(), joint_name_) == js->name.end()) return;
   std::lock_guard<std::mutex> l(inbox_mutex_);
   // Bounded: the worker drains it at every scan and poll; full, it is stuck, and
   // the newest are dropped (counted) rather than the memory grown.
