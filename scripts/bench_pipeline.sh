@@ -3,7 +3,7 @@
 # grouper and the neck relay in one nodelet manager, robot_state_publisher) on
 # the emulated head at the sensor's 40 Hz with the grouper on. Measures every
 # process roslaunch started over a window after a warm-up (CPU time as a share
-# of one core, resident memory) and prints them with the package's total (the
+# of one core, resident memory, voluntary context switches a second) and prints them with the package's total (the
 # emulator and ROS's own rosmaster and rosout are printed apart, not counted).
 # With a second workspace (an earlier release, built by scripts/build.sh with
 # TLP_WS=DIR) both pipelines run at the same time under their own masters, so
@@ -48,6 +48,8 @@ trap 'for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null; done; wait 2>/dev/nu
 sleep "$warmup"
 children() { ps -o pid= --ppid "$1" | tr -d ' '; }
 cpu() { awk '{print $14 + $15}' "/proc/$1/stat" 2>/dev/null || echo 0; }
+# voluntary context switches of all its threads: how often it sleeps and is woken
+wakes() { cat /proc/"$1"/task/*/status 2>/dev/null | awk '/^voluntary_ctxt_switches/ {s += $2} END {print s + 0}'; }
 label() {
   local cmd; cmd=$(tr '\0' ' ' < "/proc/$1/cmdline" 2>/dev/null | cut -c1-200)
   case "$cmd" in
@@ -62,11 +64,11 @@ label() {
     *) echo "$(basename "$(echo "$cmd" | awk '{print ($1 ~ /python/ ? $2 : $1)}')")";;
   esac
 }
-declare -A c0 procs
+declare -A c0 w0 procs
 for i in "${!runs[@]}"; do
   procs[$i]=$(children "${launch_of[$i]}" | tr '\n' ' ')
   [ -n "${procs[$i]// /}" ] || { echo "nothing running for ${runs[$i]}; see /tmp/tlp_bench_$(( base_port + 2 * i )).log"; exit 1; }
-  for p in ${procs[$i]}; do c0[$p]=$(cpu "$p"); done
+  for p in ${procs[$i]}; do c0[$p]=$(cpu "$p"); w0[$p]=$(wakes "$p"); done
 done
 t0=$(date +%s.%N)
 sleep "$window"
@@ -80,11 +82,12 @@ for i in "${!runs[@]}"; do
     l=$(label "$p")
     pct=$(awk -v a="${c0[$p]}" -v b="$(cpu "$p")" -v t0="$t0" -v t1="$t1" -v hz="$tick" 'BEGIN {printf "%.2f", 100 * (b - a) / hz / (t1 - t0)}')
     r=$(awk '/VmRSS/ {printf "%.1f", $2 / 1024}' "/proc/$p/status")
+    wk=$(awk -v a="${w0[$p]}" -v b="$(wakes "$p")" -v t0="$t0" -v t1="$t1" 'BEGIN {printf "%.0f", (b - a) / (t1 - t0)}')
     case "$l" in
       emulator|ros:*) note=" (not counted)";;
       *) note=""; tc=$(awk -v a="$tc" -v b="$pct" 'BEGIN {print a + b}'); tr=$(awk -v a="$tr" -v b="$r" 'BEGIN {print a + b}');;
     esac
-    printf "  %-58s cpu %6s %% of one core, resident %6s MB%s\n" "$l" "$pct" "$r" "$note"
+    printf "  %-58s cpu %6s %% of one core, resident %6s MB, woken %5s/s%s\n" "$l" "$pct" "$r" "$wk" "$note"
   done
   total_cpu[$i]=$tc; total_rss[$i]=$tr
   printf "  package total: cpu_percent=%.2f rss_mb=%.1f (goals: < 5 %%, < 100 MB)\n" "$tc" "$tr"
