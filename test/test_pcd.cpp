@@ -99,7 +99,7 @@ TEST(Pcd, EveryDataFormatPclWritesIsRead) {
   // Files that are no PCD, or cut short: an error, never a crash (PCL's
   // read() itself crashes on the first).
   const std::string header = "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 10\nHEIGHT 10\nPOINTS 100\n";
-  for (const std::string text : {std::string("not a pcd file\n"), header + "DATA binary\n" + std::string(50, '\0'),
+  for (const std::string& text : {std::string("not a pcd file\n"), header + "DATA binary\n" + std::string(50, '\0'),
                                  header + "DATA binary_compressed\n" + std::string(50, '\xff'),
                                  header + "DATA ascii\n1 2 3\n4 5 6\n"}) {
     std::ofstream(path, std::ios::binary) << text;

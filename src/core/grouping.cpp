@@ -34,7 +34,6 @@ constexpr double kMinLoneCover = 0.8;
 /// them with an rms within this fraction of the distance threshold.
 constexpr double kUnionRms = 0.75;
 
-/// Area of a polygon given in the plane (u, v) coordinates of a fit.
 /// Rms distance of the points of m to the plane f [m].
 double rmsAbout(const Moments3& m, const PlaneFit& f) {
   if (!(m.n > 0.0)) return 0.0;
@@ -43,6 +42,7 @@ double rmsAbout(const Moments3& m, const PlaneFit& f) {
   return std::sqrt(std::max(0.0, e));
 }
 
+/// Area of a polygon given in the plane (u, v) coordinates of a fit.
 double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
   if (poly.size() < 3) return 0.0;
   const Eigen::Vector3d u = f.normal.unitOrthogonal();
@@ -187,7 +187,7 @@ void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
   seg_plane_.clear();
 }
 
-bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) const {
+bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bool lone) const {
   const double thr = p_.threshold(s.range);
   // A neighbour: a member of the last lines is close.
   const double limit = p_.seed_gap + 0.05 * s.range;
@@ -199,7 +199,23 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score) co
     const double d1 = std::abs(r.fit.normal.dot(s.start) - r.fit.offset);
     const double d2 = std::abs(r.fit.normal.dot(s.end) - r.fit.offset);
     const double dc = std::abs(r.fit.normal.dot(s.moments.mean()) - r.fit.offset);
-    if (std::max(d1, d2) > 1.5 * thr || dc > std::max(p_.centroid_min, p_.centroid_ratio * s.range)) return false;
+    if (std::max(d1, d2) > 1.5 * thr) return false;
+    const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+    if (dc > tol) {
+      // Beyond the lines that fixed it a plane's place is as uncertain as its
+      // tilt (a face seen by three lines, its fourth a backlash off): a
+      // segment that no plane took fits if the plane refitted with it takes
+      // it within the tolerance, without turning by more than the merge
+      // angle, and still fits the plane's own points.
+      if (!lone) return false;
+      Moments3 m = r.moments;
+      m += s.moments;
+      const PlaneFit f = fitPlane(m);
+      if (std::abs(f.normal.dot(s.moments.mean()) - f.offset) > tol ||
+          std::abs(f.normal.dot(r.fit.normal)) < std::cos(p_.merge_angle_deg * kDeg) ||
+          rmsAbout(r.moments, f) > 0.5 * thr)
+        return false;
+    }
     if (s.length() > 0.15 && std::abs((s.end - s.start).normalized().dot(r.fit.normal)) > std::sin(p_.angle_deg * kDeg))
       return false;
     score = std::max(d1, d2) / thr;
@@ -275,7 +291,7 @@ int ScanLineGrouper::newRegion(int si) {
   return seg_region_[si];
 }
 
-int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines) const {
+int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines, bool lone) const {
   int best = -1;
   double best_score = 1e300;
   for (const int rj : among) {
@@ -289,7 +305,7 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
     double score = 0.0;
     Segment3 probe = s;
     probe.line = std::min(s.line, o.last_line + 1);  // fits() looks at the lines before the segment's
-    if (overlap && fits(o, probe, score) && score < best_score) {
+    if (overlap && fits(o, probe, score, lone) && score < best_score) {
       best = rj;
       best_score = score;
     }
@@ -667,7 +683,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     if (ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() >= 2) continue;
     const Segment3& s = segs_[si];
     if (s.moments.n < 3) continue;
-    const int best = bestFit(s, cand, ri, 2);
+    const int best = bestFit(s, cand, ri, 2, true);
     if (best < 0) continue;
     if (ri >= 0 && !regions_[ri].dead) {  // a lone segment's region empties
       regions_[ri].members.clear();

@@ -364,7 +364,11 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
       in.time_increment = m.timeIncrement();
       for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
       for (const auto& e : split.edges) in.edges.emplace_back(e.index, e.kind);
-      LineTruth lt{hs.scan.face, hs.scan.ranges, hs.scan.edges, split.edges};
+      LineTruth lt;
+      lt.face = hs.scan.face;
+      lt.ranges = hs.scan.ranges;
+      lt.edges = hs.scan.edges;
+      lt.found = split.edges;
       for (const unsigned char m : hs.scan.mixed) lt.mixed += m;
       lt.is_mixed = hs.scan.mixed;
       for (const auto& s : split.segments) {

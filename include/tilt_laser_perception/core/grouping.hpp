@@ -115,7 +115,10 @@ class ScanLineGrouper {
     PlaneFit fit;
     bool dead = false;   // merged into another
   };
-  bool fits(const Region& r, const Segment3& s, double& score) const;
+  /// Whether s may join r (and a score, lowest best). `lone`: s is a segment
+  /// no plane took (the late joins); beyond the tolerance of r's plane it
+  /// may still join if r's plane refitted with it takes it.
+  bool fits(const Region& r, const Segment3& s, double& score, bool lone = false) const;
   /// Whether r's lines lie far enough apart to fix its normal.
   static bool planar(const Region& r) { return r.last_line > r.first_line && r.fit.spread(1) > kPlanarSpread; }
   /// Points spread this much across their lines, or more, fix a normal [m].
@@ -124,8 +127,8 @@ class ScanLineGrouper {
   /// through both), if they lie far enough apart.
   static bool confirmed(const Region& r) { return r.lines >= 3 && planar(r); }
   /// The region `among` those of `min_lines` lines (at least two) or more (not `except`)
-  /// that s fits best; it must overlap a member of the lines near s. -1 for none.
-  int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines) const;
+  /// that s fits best (`lone`: see fits()); it must overlap a member of the lines near s. -1 for none.
+  int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines, bool lone = false) const;
   /// Whether two segments of different lines seed a plane (side by side,
   /// the shorter beside 30 % of the longer or more, near, coplanar, and no
   /// line between them saw another surface beside them); a score, lowest
