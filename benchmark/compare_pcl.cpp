@@ -14,7 +14,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -24,6 +23,7 @@
 
 #include "tilt_laser_perception/core/polyline_split.hpp"
 #include "tilt_laser_perception/sim/head.hpp"
+#include "tilt_laser_perception/sim/lidar_sim.hpp"
 #include "tilt_laser_perception/sim/scene.hpp"
 #include "tilt_laser_perception/sim/scene_eval.hpp"
 
@@ -108,32 +108,11 @@ double medianMs(std::vector<double> v) {
   return v.empty() ? 0.0 : 1e3 * v[v.size() / 2];
 }
 
-/// An n x n range image of the scene from the head: rows of equal elevation
-/// (10 to 60 degrees down, the tilt's range), columns of equal azimuth (+-60
-/// degrees), 1 cm range noise (the UTM-30LX's within 10 m).
-std::vector<Eigen::Vector3f> rangeImage(const tlp::sim::Scene& scene, const Eigen::Vector3d& head, int n,
-                                        std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> noise(0.0, 0.01);
-  std::vector<Eigen::Vector3f> pts(static_cast<std::size_t>(n) * n);
-  for (int r = 0; r < n; ++r) {
-    const double el = (10.0 + 50.0 * r / (n - 1)) * M_PI / 180.0;
-    for (int c = 0; c < n; ++c) {
-      const double az = (60.0 - 120.0 * c / (n - 1)) * M_PI / 180.0;
-      const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), -std::sin(el));
-      tlp::sim::Hit hit;
-      Eigen::Vector3f& p = pts[static_cast<std::size_t>(r) * n + c];
-      p.setConstant(std::numeric_limits<float>::quiet_NaN());  // no return
-      if (scene.raycast(head, dir, 30.0, hit)) p = (head + (hit.t + noise(rng)) * dir).cast<float>();
-    }
-  }
-  return pts;
-}
-
 int organized(const std::string& scene_name, int n, std::uint64_t seed, const PclSettings& ps) {
   const tlp::sim::Scene scene = tlp::sim::loadScene(scene_name);
   const Eigen::Vector3d head = tlp::sim::HeadGeometry::load(tlp::sim::configDirectory() + "/head.yaml").axis_origin;
-  const std::vector<Eigen::Vector3f> pts = rangeImage(scene, head, n, seed);
+  // 1 cm range noise: the UTM-30LX's within 10 m.
+  const std::vector<Eigen::Vector3f> pts = tlp::sim::rangeImage(scene, head, n, 0.01, seed);
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   cloud->width = cloud->height = static_cast<std::uint32_t>(n);
   cloud->is_dense = false;

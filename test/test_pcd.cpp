@@ -182,6 +182,18 @@ TEST(Pcd, SynPebTestCloudThroughSegmentCloud) {
   EXPECT_EQ(h.expected, 13);
   EXPECT_GE(h.correct, 6);  // the figure on the day the cloud was added (PCL's: 3)
   EXPECT_LE(h.noise, 2);
+  // segment_cloud --noise auto: the cloud's own noise is about 1 mm, and
+  // tolerances of 6 sigma part the faces that meet at 24 degrees.
+  const double sigma = core::estimateRangeNoise(c.points, c.width, c.height, c.viewpoint);
+  EXPECT_NEAR(sigma, 0.0011, 0.0002);
+  core::SplitParams sp;
+  core::GroupingParams gp;
+  core::scaleTolerancesToNoise(sigma, sp, gp);
+  core::segmentOrganized(c.points, c.width, c.height, true, c.viewpoint, sp, gp, planes, labels);
+  for (std::size_t i = 0; i < labels.size(); ++i) found[i] = static_cast<int>(labels[i]) - 1;
+  const HooverScore own = hooverScore(RegionOverlap::of(c.truth, found), 0.8, [](int) { return true; });
+  EXPECT_GE(own.correct, 9);
+  EXPECT_LE(own.noise, 1);
 }
 
 #include <cstdio>

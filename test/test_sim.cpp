@@ -493,3 +493,87 @@ TEST(SceneEval, TheFrontsObservableCellsAreThoseThePointsReach) {
   }
   EXPECT_GE(judged, 3);
 }
+
+#include "tilt_laser_perception/core/polyline_split.hpp"
+#include "tilt_laser_perception/sim/head.hpp"
+
+namespace {
+// Hoover's correct faces of segmentOrganized on a range image, faces of at
+// least 100 points expected.
+int correctFaces(const std::vector<Eigen::Vector3f>& pts, const std::vector<int>& faces, int n,
+                 const Eigen::Vector3d& origin, const core::SplitParams& sp, const core::GroupingParams& gp) {
+  std::vector<core::Plane> planes;
+  std::vector<std::uint32_t> labels;
+  core::segmentOrganized(pts, n, n, true, origin, sp, gp, planes, labels);
+  std::vector<int> found(labels.size());
+  for (std::size_t i = 0; i < labels.size(); ++i) found[i] = static_cast<int>(labels[i]) - 1;
+  std::map<int, int> count;
+  for (int f : faces) ++count[f];
+  return sim::hooverScore(sim::RegionOverlap::of(faces, found), 0.8, [&](int f) { return count[f] >= 100; }).correct;
+}
+}  // namespace
+
+TEST(OrganizedNoise, EstimatedFromTheCloudItself) {
+  const Eigen::Vector3d head = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").axis_origin;
+  const Scene s = sim::loadScene("stairs");
+  for (double sigma : {0.002, 0.01}) {
+    const auto pts = sim::rangeImage(s, head, 200, sigma, 3);
+    EXPECT_NEAR(core::estimateRangeNoise(pts, 200, 200, head), sigma, 0.15 * sigma) << sigma;
+  }
+  // A rig's lines offset from each other by up to +-2 cm: the noise across
+  // the lines is that of the offsets, and the tolerances stay the defaults.
+  std::vector<Eigen::Vector3f> pts = sim::rangeImage(s, head, 200, 0.001, 3);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> offset(-0.02f, 0.02f);
+  for (int row = 0; row < 200; ++row) {
+    const float d = offset(rng);
+    for (int c = 0; c < 200; ++c) {
+      Eigen::Vector3f& p = pts[static_cast<std::size_t>(row) * 200 + c];
+      p += d * (p - head.cast<float>()).normalized();
+    }
+  }
+  const double sigma = core::estimateRangeNoise(pts, 200, 200, head);
+  EXPECT_GT(sigma, 0.008);
+  core::SplitParams sp;
+  core::GroupingParams gp;
+  EXPECT_EQ(core::scaleTolerancesToNoise(sigma, sp, gp), 1.0);
+  EXPECT_EQ(gp.dist_min, core::GroupingParams().dist_min);
+}
+
+TEST(OrganizedNoise, TolerancesScaledWithinAFifthAndTheDefaults) {
+  const auto scaled = [](double sigma) {
+    core::SplitParams sp;
+    core::GroupingParams gp;
+    const double k = core::scaleTolerancesToNoise(sigma, sp, gp);
+    EXPECT_NEAR(sp.d_min, k * core::SplitParams().d_min, 1e-12);
+    EXPECT_NEAR(sp.zeta, k * core::SplitParams().zeta, 1e-12);
+    EXPECT_NEAR(gp.dist_ratio, k * core::GroupingParams().dist_ratio, 1e-12);
+    EXPECT_NEAR(gp.centroid_min, k * core::GroupingParams().centroid_min, 1e-12);
+    EXPECT_NEAR(gp.centroid_ratio, k * core::GroupingParams().centroid_ratio, 1e-12);
+    return gp.dist_min;
+  };
+  EXPECT_NEAR(scaled(0.002), 0.012, 1e-9);  // 6 sigma
+  EXPECT_NEAR(scaled(0.0001), 0.006, 1e-9);  // a fifth of 3 cm at most
+  EXPECT_NEAR(scaled(0.02), 0.03, 1e-9);     // never above the defaults
+  EXPECT_NEAR(scaled(0.0), 0.03, 1e-9);      // no estimate: the defaults
+}
+
+// The landing meets the ramp at 5.7 degrees: at 1 mm of noise the default
+// tolerances (made for 1 cm) give the landing's plane 350 points of the ramp
+// beside its own 1050 (under 80 %); tolerances of the cloud's own noise part
+// the two.
+TEST(OrganizedNoise, ALessNoisyCloudIsJudgedByItsOwnNoise) {
+  const Eigen::Vector3d head = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").axis_origin;
+  const Scene s = sim::loadScene("ramp");
+  for (std::uint64_t seed : {1, 2}) {
+    std::vector<int> faces;
+    const auto pts = sim::rangeImage(s, head, 200, 0.001, seed, &faces);
+    core::SplitParams sp;
+    core::GroupingParams gp;
+    const int defaults = correctFaces(pts, faces, 200, head, sp, gp);
+    EXPECT_GT(core::scaleTolerancesToNoise(core::estimateRangeNoise(pts, 200, 200, head), sp, gp), 0.2);
+    const int own = correctFaces(pts, faces, 200, head, sp, gp);
+    EXPECT_EQ(defaults, 7) << seed;
+    EXPECT_EQ(own, 8) << seed;
+  }
+}

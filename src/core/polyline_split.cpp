@@ -1,5 +1,6 @@
 #include "tilt_laser_perception/core/polyline_split.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -99,6 +100,46 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
       const Segment3& s = g.segments()[m];
       for (int i = s.first; i <= s.last; ++i) labels[index(s.line, i)] = static_cast<std::uint32_t>(p.id + 1);
     }
+}
+
+double estimateRangeNoise(const std::vector<Eigen::Vector3f>& points, int width, int height,
+                          const Eigen::Vector3d& origin) {
+  if (width < 3 && height < 3) return 0.0;
+  std::vector<float> range(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    range[i] = points[i].allFinite() ? static_cast<float>((points[i].cast<double>() - origin).norm())
+                                     : std::numeric_limits<float>::quiet_NaN();
+  // About 20,000 triples a direction are plenty for a median; a large cloud
+  // is sampled on a grid.
+  const std::size_t n = points.size();
+  const int stride = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(n) / 20000.0)));
+  std::vector<float> e;
+  const auto sigmaOf = [&](int di, int dj) {
+    e.clear();
+    for (int i = di; i + di < height; i += stride)
+      for (int j = dj; j + dj < width; j += stride) {
+        const float a = range[static_cast<std::size_t>(i - di) * width + (j - dj)];
+        const float b = range[static_cast<std::size_t>(i) * width + j];
+        const float c = range[static_cast<std::size_t>(i + di) * width + (j + dj)];
+        if (std::isfinite(a) && std::isfinite(b) && std::isfinite(c)) e.push_back(std::abs(b - 0.5f * (a + c)));
+      }
+    if (e.size() < 100) return 0.0;
+    auto mid = e.begin() + static_cast<std::ptrdiff_t>(e.size() / 2);
+    std::nth_element(e.begin(), mid, e.end());
+    return 1.4826 * *mid / std::sqrt(1.5);
+  };
+  return std::max(sigmaOf(0, 1), sigmaOf(1, 0));
+}
+
+double scaleTolerancesToNoise(double sigma, SplitParams& split, GroupingParams& grouping) {
+  const double k = sigma > 0.0 ? std::clamp(sigma / kDefaultToleranceNoise, 0.2, 1.0) : 1.0;
+  split.d_min *= k;
+  split.zeta *= k;
+  grouping.dist_min *= k;
+  grouping.dist_ratio *= k;
+  grouping.centroid_min *= k;
+  grouping.centroid_ratio *= k;
+  return k;
 }
 
 }  // namespace core

@@ -253,5 +253,27 @@ std::vector<TrueEdge> trueEdges(const Scene& scene, const std::vector<int>& face
   return edges;
 }
 
+std::vector<Eigen::Vector3f> rangeImage(const Scene& scene, const Eigen::Vector3d& origin, int n, double sigma,
+                                        std::uint64_t seed, std::vector<int>* faces) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  const std::size_t size = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  std::vector<Eigen::Vector3f> pts(size, Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  if (faces) faces->assign(size, -1);
+  for (int r = 0; r < n; ++r) {
+    const double el = (10.0 + 50.0 * r / (n - 1)) * M_PI / 180.0;
+    for (int c = 0; c < n; ++c) {
+      const double az = (60.0 - 120.0 * c / (n - 1)) * M_PI / 180.0;
+      const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), -std::sin(el));
+      Hit hit;
+      if (!scene.raycast(origin, dir, 30.0, hit)) continue;
+      const std::size_t i = static_cast<std::size_t>(r) * n + c;
+      pts[i] = (origin + (hit.t + (sigma > 0.0 ? noise(rng) : 0.0)) * dir).cast<float>();
+      if (faces) (*faces)[i] = hit.face;
+    }
+  }
+  return pts;
+}
+
 }  // namespace sim
 }  // namespace tilt_laser_perception

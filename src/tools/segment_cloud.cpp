@@ -18,12 +18,16 @@ using namespace tilt_laser_perception;
 static void usage() {
   std::fprintf(stderr,
                "usage: segment_cloud CLOUD.pcd [--scan-lines rows|columns] [--out LABELS.pcd] [--zeta Z] [--dmin D]\n"
-               "                     [--truth-field NAME [--truth-none V] [--overlap T]]\n"
+               "                     [--noise auto|off|SIGMA] [--truth-field NAME [--truth-none V] [--overlap T]]\n"
                "  the cloud must be organized (HEIGHT > 1); its VIEWPOINT is the sensor's position;\n"
                "  PCD data ascii, binary or binary_compressed, fields in any order (PCL's reader)\n"
                "  --truth-field NAME  judge the planes against the labels in field NAME (Hoover et al., 80 %%)\n"
                "  --truth-none V      the label value that means no plane (default: every value is a plane)\n"
-               "  --out FILE          x y z label (PointXYZL, binary_compressed)\n");
+               "  --out FILE          x y z label (PointXYZL, binary_compressed)\n"
+               "  --noise             off (default): the tolerances of the UTM-30LX on the tilting head; SIGMA [m]\n"
+               "                      or auto (estimated from the cloud's own second differences along its rows\n"
+               "                      and its columns): a cloud less noisy than 5 mm is judged by its own noise,\n"
+               "                      the tolerances scaled down to a fifth at most (fine grids; see README)\n");
 }
 
 int main(int argc, char** argv) {
@@ -32,6 +36,7 @@ int main(int argc, char** argv) {
   core::SplitParams split;
   io::TruthField truth;
   double overlap = 0.8;
+  std::string noise = "off";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
@@ -45,22 +50,39 @@ int main(int argc, char** argv) {
     else if (a == "--truth-field" && v) truth.name = argv[++i];
     else if (a == "--truth-none" && v) { truth.has_none = true; truth.none = std::atof(argv[++i]); }
     else if (a == "--overlap" && v) overlap = std::atof(argv[++i]);
+    else if (a == "--noise" && v) noise = argv[++i];
     else if (a[0] != '-' && in.empty()) in = a;
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
-  if (in.empty() || !(overlap > 0.5 && overlap <= 1.0)) { usage(); return 2; }
+  char* noise_end = nullptr;
+  const double noise_sigma = std::strtod(noise.c_str(), &noise_end);
+  const bool noise_given = noise_end != noise.c_str() && *noise_end == '\0' && noise_sigma > 0.0;
+  if (in.empty() || !(overlap > 0.5 && overlap <= 1.0) || (noise != "auto" && noise != "off" && !noise_given)) {
+    usage();
+    return 2;
+  }
   try {
     const io::OrganizedCloud c = io::readPcd(in, truth);
     if (c.height < 2 || c.width < 2) throw std::runtime_error(in + " is not organized (HEIGHT and WIDTH must be > 1)");
     std::vector<core::Plane> planes;
     std::vector<std::uint32_t> labels;
     const auto t0 = std::chrono::steady_clock::now();
-    core::segmentOrganized(c.points, c.width, c.height, rows, c.viewpoint, split, core::GroupingParams(), planes, labels);
+    core::GroupingParams grouping;
+    double sigma = 0.0, k = 1.0;
+    if (noise != "off") {
+      sigma = noise_given ? noise_sigma : core::estimateRangeNoise(c.points, c.width, c.height, c.viewpoint);
+      k = core::scaleTolerancesToNoise(sigma, split, grouping);
+    }
+    core::segmentOrganized(c.points, c.width, c.height, rows, c.viewpoint, split, grouping, planes, labels);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::size_t labeled = 0;
     for (auto l : labels) labeled += l != 0;
     std::printf("%s: %d x %d points, scan lines are %s; %zu planes, %zu points in planes; %.2f ms\n", in.c_str(),
                 c.width, c.height, rows ? "rows" : "columns", planes.size(), labeled, ms);
+    if (noise != "off")
+      std::printf("range noise %.1f mm (%s): tolerances x %.2f (split d_min %.1f mm, zeta %.4f; plane distance %.1f mm)\n",
+                  1e3 * sigma, noise_given ? "given" : "estimated", k, 1e3 * split.d_min, split.zeta,
+                  1e3 * grouping.dist_min);
     std::printf("id,points,segments,area_m2,nx,ny,nz,offset_m,cx,cy,cz,rms_m\n");
     for (const auto& p : planes)
       std::printf("%d,%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%.4f\n", p.id + 1, p.points, p.segments, p.area,

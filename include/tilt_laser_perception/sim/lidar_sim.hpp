@@ -157,5 +157,13 @@ class LidarSimulator {
 std::vector<TrueEdge> trueEdges(const Scene& scene, const std::vector<int>& face,
                                 const std::vector<float>& ranges, const std::vector<float>& true_ranges);
 
+/// An n x n range image of the scene from `origin` (row-major): rows of
+/// equal elevation (10 to 60 degrees down, the tilt's range), columns of
+/// equal azimuth (+60 to -60 degrees), Gaussian range noise of `sigma` [m];
+/// NaN where no face within 30 m. `faces`, if given, gets each point's face
+/// id (-1: none).
+std::vector<Eigen::Vector3f> rangeImage(const Scene& scene, const Eigen::Vector3d& origin, int n, double sigma,
+                                        std::uint64_t seed, std::vector<int>* faces = nullptr);
+
 }  // namespace sim
 }  // namespace tilt_laser_perception
