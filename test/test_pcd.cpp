@@ -184,11 +184,12 @@ TEST(Pcd, SynPebTestCloudThroughSegmentCloud) {
   EXPECT_LE(h.noise, 2);
   // segment_cloud --noise auto: the cloud's own noise is about 1 mm, and
   // tolerances of 6 sigma part the faces that meet at 24 degrees.
-  const double sigma = core::estimateRangeNoise(c.points, c.width, c.height, c.viewpoint);
-  EXPECT_NEAR(sigma, 0.0011, 0.0002);
+  const core::CloudNoise cn = core::estimateCloudNoise(c.points, c.width, c.height, c.viewpoint);
+  EXPECT_NEAR(cn.sigma, 0.0011, 0.0002);
+  EXPECT_NEAR(cn.step * 180.0 / M_PI, 0.14, 0.01);  // the cloud's columns are 0.14 degrees apart
   core::SplitParams sp;
   core::GroupingParams gp;
-  core::scaleTolerancesToNoise(sigma, sp, gp);
+  core::scaleTolerancesToNoise(cn, sp, gp);
   core::segmentOrganized(c.points, c.width, c.height, true, c.viewpoint, sp, gp, planes, labels);
   for (std::size_t i = 0; i < labels.size(); ++i) found[i] = static_cast<int>(labels[i]) - 1;
   const HooverScore own = hooverScore(RegionOverlap::of(c.truth, found), 0.8, [](int) { return true; });

@@ -518,7 +518,10 @@ TEST(OrganizedNoise, EstimatedFromTheCloudItself) {
   const Scene s = sim::loadScene("stairs");
   for (double sigma : {0.002, 0.01}) {
     const auto pts = sim::rangeImage(s, head, 200, sigma, 3);
-    EXPECT_NEAR(core::estimateRangeNoise(pts, 200, 200, head), sigma, 0.15 * sigma) << sigma;
+    const core::CloudNoise cn = core::estimateCloudNoise(pts, 200, 200, head);
+    EXPECT_NEAR(cn.sigma, sigma, 0.15 * sigma) << sigma;
+    // Columns 120/199 degrees of azimuth apart, at the median row's elevation of 35 degrees.
+    EXPECT_NEAR(cn.step * 180.0 / M_PI, 120.0 / 199.0 * std::cos(35.0 * M_PI / 180.0), 0.01);
   }
   // A rig's lines offset from each other by up to +-2 cm: the noise across
   // the lines is that of the offsets, and the tolerances stay the defaults.
@@ -532,21 +535,24 @@ TEST(OrganizedNoise, EstimatedFromTheCloudItself) {
       p += d * (p - head.cast<float>()).normalized();
     }
   }
-  const double sigma = core::estimateRangeNoise(pts, 200, 200, head);
-  EXPECT_GT(sigma, 0.008);
+  const core::CloudNoise cn = core::estimateCloudNoise(pts, 200, 200, head);
+  EXPECT_GT(cn.sigma, 0.008);
   core::SplitParams sp;
   core::GroupingParams gp;
-  EXPECT_EQ(core::scaleTolerancesToNoise(sigma, sp, gp), 1.0);
+  EXPECT_EQ(core::scaleTolerancesToNoise(cn, sp, gp), 1.0);
   EXPECT_EQ(gp.dist_min, core::GroupingParams().dist_min);
 }
 
 TEST(OrganizedNoise, TolerancesScaledWithinAFifthAndTheDefaults) {
-  const auto scaled = [](double sigma) {
+  const auto scaled = [](double sigma, double step_deg = 0.1) {
     core::SplitParams sp;
     core::GroupingParams gp;
-    const double k = core::scaleTolerancesToNoise(sigma, sp, gp);
+    core::CloudNoise cn;
+    cn.sigma = sigma;
+    cn.step = step_deg * M_PI / 180.0;
+    const double k = core::scaleTolerancesToNoise(cn, sp, gp);
     EXPECT_NEAR(sp.d_min, k * core::SplitParams().d_min, 1e-12);
-    EXPECT_NEAR(sp.zeta, k * core::SplitParams().zeta, 1e-12);
+    EXPECT_NEAR(sp.zeta, std::min(0.01, std::max(k * 0.01, 0.5 * cn.step)), 1e-12);
     EXPECT_NEAR(gp.dist_ratio, k * core::GroupingParams().dist_ratio, 1e-12);
     EXPECT_NEAR(gp.centroid_min, k * core::GroupingParams().centroid_min, 1e-12);
     EXPECT_NEAR(gp.centroid_ratio, k * core::GroupingParams().centroid_ratio, 1e-12);
@@ -556,6 +562,17 @@ TEST(OrganizedNoise, TolerancesScaledWithinAFifthAndTheDefaults) {
   EXPECT_NEAR(scaled(0.0001), 0.006, 1e-9);  // a fifth of 3 cm at most
   EXPECT_NEAR(scaled(0.02), 0.03, 1e-9);     // never above the defaults
   EXPECT_NEAR(scaled(0.0), 0.03, 1e-9);      // no estimate: the defaults
+  // The split's zeta stays at least half the angle between beams, never above its default.
+  core::SplitParams sp;
+  core::GroupingParams gp;
+  core::CloudNoise cn;
+  cn.sigma = 0.001;
+  for (double step_deg : {0.1, 0.6, 1.2}) {
+    cn.step = step_deg * M_PI / 180.0;
+    sp = core::SplitParams();
+    core::scaleTolerancesToNoise(cn, sp, gp);
+    EXPECT_NEAR(sp.zeta, step_deg == 0.1 ? 0.002 : step_deg == 0.6 ? 0.5 * cn.step : 0.01, 1e-12) << step_deg;
+  }
 }
 
 // The landing meets the ramp at 5.7 degrees: at 1 mm of noise the default
@@ -571,7 +588,7 @@ TEST(OrganizedNoise, ALessNoisyCloudIsJudgedByItsOwnNoise) {
     core::SplitParams sp;
     core::GroupingParams gp;
     const int defaults = correctFaces(pts, faces, 200, head, sp, gp);
-    EXPECT_GT(core::scaleTolerancesToNoise(core::estimateRangeNoise(pts, 200, 200, head), sp, gp), 0.2);
+    EXPECT_GT(core::scaleTolerancesToNoise(core::estimateCloudNoise(pts, 200, 200, head), sp, gp), 0.2);
     const int own = correctFaces(pts, faces, 200, head, sp, gp);
     EXPECT_EQ(defaults, 7) << seed;
     EXPECT_EQ(own, 8) << seed;

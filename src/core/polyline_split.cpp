@@ -102,39 +102,54 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
     }
 }
 
-double estimateRangeNoise(const std::vector<Eigen::Vector3f>& points, int width, int height,
-                          const Eigen::Vector3d& origin) {
-  if (width < 3 && height < 3) return 0.0;
+CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int width, int height,
+                              const Eigen::Vector3d& origin) {
+  CloudNoise out;
+  if (width < 3 && height < 3) return out;
+  const Eigen::Vector3f o = origin.cast<float>();
   std::vector<float> range(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i)
-    range[i] = points[i].allFinite() ? static_cast<float>((points[i].cast<double>() - origin).norm())
-                                     : std::numeric_limits<float>::quiet_NaN();
-  // About 20,000 triples a direction are plenty for a median; a large cloud
+  std::vector<Eigen::Vector3f> dir(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const bool ok = points[i].allFinite();
+    range[i] = ok ? (points[i] - o).norm() : std::numeric_limits<float>::quiet_NaN();
+    dir[i] = ok ? Eigen::Vector3f((points[i] - o) / range[i]) : Eigen::Vector3f::Zero();
+  }
+  // About 20,000 samples a direction are plenty for a median; a large cloud
   // is sampled on a grid.
-  const std::size_t n = points.size();
-  const int stride = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(n) / 20000.0)));
+  const int stride = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(points.size()) / 20000.0)));
   std::vector<float> e;
+  const auto median = [&](std::size_t min_count) {
+    if (e.size() < min_count) return 0.0;
+    auto mid = e.begin() + static_cast<std::ptrdiff_t>(e.size() / 2);
+    std::nth_element(e.begin(), mid, e.end());
+    return static_cast<double>(*mid);
+  };
+  const auto at = [&](int i, int j) { return static_cast<std::size_t>(i) * width + j; };
   const auto sigmaOf = [&](int di, int dj) {
     e.clear();
     for (int i = di; i + di < height; i += stride)
       for (int j = dj; j + dj < width; j += stride) {
-        const float a = range[static_cast<std::size_t>(i - di) * width + (j - dj)];
-        const float b = range[static_cast<std::size_t>(i) * width + j];
-        const float c = range[static_cast<std::size_t>(i + di) * width + (j + dj)];
+        const float a = range[at(i - di, j - dj)], b = range[at(i, j)], c = range[at(i + di, j + dj)];
         if (std::isfinite(a) && std::isfinite(b) && std::isfinite(c)) e.push_back(std::abs(b - 0.5f * (a + c)));
       }
-    if (e.size() < 100) return 0.0;
-    auto mid = e.begin() + static_cast<std::ptrdiff_t>(e.size() / 2);
-    std::nth_element(e.begin(), mid, e.end());
-    return 1.4826 * *mid / std::sqrt(1.5);
+    return 1.4826 * median(100) / std::sqrt(1.5);
   };
-  return std::max(sigmaOf(0, 1), sigmaOf(1, 0));
+  out.sigma = std::max(sigmaOf(0, 1), sigmaOf(1, 0));
+  e.clear();
+  for (int i = 0; i < height; i += stride)
+    for (int j = 1; j < width; j += stride) {
+      const Eigen::Vector3f &a = dir[at(i, j - 1)], &b = dir[at(i, j)];
+      if (std::isfinite(range[at(i, j - 1)]) && std::isfinite(range[at(i, j)]))
+        e.push_back(std::atan2(a.cross(b).norm(), a.dot(b)));
+    }
+  out.step = median(100);
+  return out;
 }
 
-double scaleTolerancesToNoise(double sigma, SplitParams& split, GroupingParams& grouping) {
-  const double k = sigma > 0.0 ? std::clamp(sigma / kDefaultToleranceNoise, 0.2, 1.0) : 1.0;
+double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping) {
+  const double k = noise.sigma > 0.0 ? std::clamp(noise.sigma / kDefaultToleranceNoise, 0.2, 1.0) : 1.0;
   split.d_min *= k;
-  split.zeta *= k;
+  split.zeta = std::min(split.zeta, std::max(k * split.zeta, 0.5 * noise.step));
   grouping.dist_min *= k;
   grouping.dist_ratio *= k;
   grouping.centroid_min *= k;

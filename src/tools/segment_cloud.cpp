@@ -4,6 +4,7 @@
 // the time; with --truth-field, Hoover et al.'s figures against a label field
 // of the cloud; writes the cloud back with a label per point (0: no plane).
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -27,7 +28,8 @@ static void usage() {
                "  --noise             off (default): the tolerances of the UTM-30LX on the tilting head; SIGMA [m]\n"
                "                      or auto (estimated from the cloud's own second differences along its rows\n"
                "                      and its columns): a cloud less noisy than 5 mm is judged by its own noise,\n"
-               "                      the tolerances scaled down to a fifth at most (fine grids; see README)\n");
+               "                      the tolerances scaled down to a fifth at most, the split's zeta to half the\n"
+               "                      angle between beams\n");
 }
 
 int main(int argc, char** argv) {
@@ -68,10 +70,12 @@ int main(int argc, char** argv) {
     std::vector<std::uint32_t> labels;
     const auto t0 = std::chrono::steady_clock::now();
     core::GroupingParams grouping;
-    double sigma = 0.0, k = 1.0;
+    core::CloudNoise cn;
+    double k = 1.0;
     if (noise != "off") {
-      sigma = noise_given ? noise_sigma : core::estimateRangeNoise(c.points, c.width, c.height, c.viewpoint);
-      k = core::scaleTolerancesToNoise(sigma, split, grouping);
+      cn = core::estimateCloudNoise(c.points, c.width, c.height, c.viewpoint);
+      if (noise_given) cn.sigma = noise_sigma;
+      k = core::scaleTolerancesToNoise(cn, split, grouping);
     }
     core::segmentOrganized(c.points, c.width, c.height, rows, c.viewpoint, split, grouping, planes, labels);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -80,9 +84,10 @@ int main(int argc, char** argv) {
     std::printf("%s: %d x %d points, scan lines are %s; %zu planes, %zu points in planes; %.2f ms\n", in.c_str(),
                 c.width, c.height, rows ? "rows" : "columns", planes.size(), labeled, ms);
     if (noise != "off")
-      std::printf("range noise %.1f mm (%s): tolerances x %.2f (split d_min %.1f mm, zeta %.4f; plane distance %.1f mm)\n",
-                  1e3 * sigma, noise_given ? "given" : "estimated", k, 1e3 * split.d_min, split.zeta,
-                  1e3 * grouping.dist_min);
+      std::printf("range noise %.1f mm (%s), beams %.3f deg apart: tolerances x %.2f (split d_min %.1f mm, zeta %.4f;"
+                  " plane distance %.1f mm)\n",
+                  1e3 * cn.sigma, noise_given ? "given" : "estimated", cn.step * 180.0 / M_PI, k, 1e3 * split.d_min,
+                  split.zeta, 1e3 * grouping.dist_min);
     std::printf("id,points,segments,area_m2,nx,ny,nz,offset_m,cx,cy,cz,rms_m\n");
     for (const auto& p : planes)
       std::printf("%d,%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%.4f\n", p.id + 1, p.points, p.segments, p.area,

@@ -36,15 +36,20 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
                       const Eigen::Vector3d& origin, const SplitParams& split, const GroupingParams& grouping,
                       std::vector<Plane>& planes, std::vector<std::uint32_t>& labels);
 
-/// The range noise of an organized cloud, from its own points: each point's
-/// range against the mean of its two neighbours' (a second difference: 1.5
-/// sigma^2 of variance on a smooth surface), along the rows and along the
-/// columns, sigma from the median of their sizes (depth edges are few, and a
-/// median does not see them); the larger of the two. Across the scan lines
-/// it holds what differs from line to line too (a tilting rig's offsets
-/// between its lines). 0 when fewer than 100 triples are valid.
-double estimateRangeNoise(const std::vector<Eigen::Vector3f>& points, int width, int height,
-                          const Eigen::Vector3d& origin);
+/// What an organized cloud's own points say about its sensor.
+struct CloudNoise {
+  /// The range noise [m]: each point's range against the mean of its two
+  /// neighbours' (a second difference: 1.5 sigma^2 of variance on a smooth
+  /// surface), along the rows and along the columns, sigma from the median
+  /// of their sizes (depth edges are few, and a median does not see them);
+  /// the larger of the two. Across the scan lines it holds what differs from
+  /// line to line too (a tilting rig's offsets between its lines).
+  double sigma = 0.0;
+  double step = 0.0;  ///< the median angle between neighbouring beams along the rows [rad]
+};
+/// Zeros when fewer than 100 neighbours are valid.
+CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int width, int height,
+                              const Eigen::Vector3d& origin);
 
 /// The noise the default tolerances are made for: they hold with the
 /// UTM-30LX's 1 cm on the tilting rig, whose lines are offset from each other
@@ -52,15 +57,16 @@ double estimateRangeNoise(const std::vector<Eigen::Vector3f>& points, int width,
 constexpr double kDefaultToleranceNoise = 0.005;
 
 /// Scales every distance tolerance of the split (d_min, zeta) and of the
-/// grouping (dist_*, centroid_*) by sigma / kDefaultToleranceNoise, within
-/// [0.2, 1]: a cloud less noisy than 5 mm is judged by its own noise, a
-/// noisier one by the defaults. The split's threshold must also hold a
-/// row's own bend (a row of equal elevation crosses a plane along a curve,
-/// not a line), so no tolerance falls under a fifth of its default (6 mm;
-/// with 3 mm, noise-free 200 x 200 range images of the clutter scene lost 2
-/// of their 15 correct faces). On coarse grids the bend between points is
-/// larger still: see README. sigma <= 0: unchanged. Returns the factor.
-double scaleTolerancesToNoise(double sigma, SplitParams& split, GroupingParams& grouping);
+/// grouping (dist_*, centroid_*) by k = sigma / kDefaultToleranceNoise,
+/// within [0.2, 1]: a cloud less noisy than 5 mm is judged by its own noise,
+/// a noisier one by the defaults. The split must also hold a line's own bend
+/// between its points (a row of equal elevation crosses a plane along a
+/// curve, not a line): its zeta stays at least half the angle between
+/// neighbouring beams (its threshold half their spacing), and no tolerance
+/// falls under a fifth of its default (6 mm). Without these two, noise-free
+/// range images of the simulator's scenes lost faces (scripts/noise_table.sh;
+/// README). sigma <= 0: unchanged. Returns k.
+double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping);
 
 }  // namespace core
 }  // namespace tilt_laser_perception
