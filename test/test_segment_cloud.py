@@ -1,0 +1,52 @@
+"""segment_cloud as a user runs it: a range image of the ramp scene written by
+scene_cloud (its faces as labels), judged with the default tolerances and with
+--noise auto, and the option's bad values refused."""
+import os
+import re
+import subprocess
+
+HERE = os.path.dirname(os.path.realpath(__file__))
+ROOT = os.path.dirname(HERE)
+BIN = os.environ.get("TLP_BIN", os.path.join(ROOT, "build_ws", "build", "tilt_laser_perception", "devel", "lib",
+                                             "tilt_laser_perception"))
+
+
+def run(*args):
+    return subprocess.run([os.path.join(BIN, args[0])] + list(args[1:]), capture_output=True, text=True, timeout=120)
+
+
+def judged(cloud, noise):
+    r = run("segment_cloud", cloud, "--truth-field", "label", "--truth-none", "0", "--noise", noise)
+    assert r.returncode == 0, r.stderr
+    m = re.search(r": (\d+) planes; at 80 % overlap: correct=(\d+) over=(\d+) under=(\d+) missed=(\d+) noise=(\d+)",
+                  r.stdout)
+    assert m, r.stdout
+    return [int(g) for g in m.groups()], r.stdout
+
+
+def test_noise_auto_on_a_range_image(tmp_path):
+    cloud = str(tmp_path / "ramp.pcd")
+    r = run("scene_cloud", cloud, "--scene", "ramp", "--size", "200", "--sigma", "0.001", "--seed", "1")
+    assert r.returncode == 0, r.stderr
+    (true, correct, *_), out = judged(cloud, "off")
+    assert "range noise" not in out
+    assert (true, correct) == (9, 7)
+    (true, correct, over, under, missed, noise), out = judged(cloud, "auto")
+    m = re.search(r"range noise ([\d.]+) mm \(estimated\), beams ([\d.]+) deg apart: tolerances x ([\d.]+)", out)
+    assert m, out
+    sigma_mm, step_deg, k = (float(g) for g in m.groups())
+    assert abs(sigma_mm - 1.0) < 0.2
+    assert abs(step_deg - 0.49) < 0.02
+    assert abs(k - sigma_mm / 5.0) < 0.011
+    assert (true, correct, noise) == (9, 8, 0)
+    # A noise given: 1 cm is no less than the defaults' 5 mm, the defaults hold.
+    (_, correct_given, *_), out = judged(cloud, "0.01")
+    assert "(given)" in out and "tolerances x 1.00" in out
+    assert correct_given == 7
+
+
+def test_bad_noise_values_are_refused(tmp_path):
+    for bad in ("bogus", "-0.001", "0", "1mm"):
+        r = run("segment_cloud", str(tmp_path / "none.pcd"), "--noise", bad)
+        assert r.returncode == 2, (bad, r.stdout, r.stderr)
+        assert "usage" in r.stderr
