@@ -44,15 +44,19 @@ void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3
         int k = -1;
         double dmax = 0.0;
         if (b - a >= 2) {
+          // Farthest point from the chord: the largest squared |cross product|,
+          // one root and one division at the end.
           const Eigen::Vector3d pa = P(a), ab = P(b) - pa;
           const double len = ab.norm();
+          double cmax = 0.0;
           for (int j = a + 1; j < b; ++j) {
-            const double d = len > 0 ? ab.cross(P(j) - pa).norm() / len : (P(j) - pa).norm();
-            if (d > dmax) {
-              dmax = d;
+            const double c = len > 0 ? ab.cross(P(j) - pa).squaredNorm() : (P(j) - pa).squaredNorm();
+            if (c > cmax) {
+              cmax = c;
               k = j;
             }
           }
+          dmax = len > 0 ? std::sqrt(cmax) / len : std::sqrt(cmax);
         }
         if (k >= 0 && dmax > p.threshold(r[k])) {
           stack.emplace_back(k + 1, b);
