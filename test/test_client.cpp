@@ -106,7 +106,9 @@ TEST(UtmClient, StreamsMultiEchoScansAndFallsBackWithoutTheEw) {
     std::string err;
     ASSERT_TRUE(client.start(err)) << err;
     EXPECT_EQ(client.multiEcho(), ew);
-    if (!ew) EXPECT_NE(client.lastWarning().find("no multi-echo"), std::string::npos) << client.lastWarning();
+    if (!ew) {
+      EXPECT_NE(client.lastWarning().find("no multi-echo"), std::string::npos) << client.lastWarning();
+    }
     int second = 0, scans = 0;
     for (int k = 0; k < 20; ++k) {
       scip::UtmScan scan;
@@ -133,7 +135,9 @@ TEST(UtmClient, StreamsMultiEchoScansAndFallsBackWithoutTheEw) {
       }
     }
     EXPECT_EQ(scans, 20);
-    if (ew) EXPECT_GT(second, 20) << "second echoes in 20 scans";
+    if (ew) {
+      EXPECT_GT(second, 20) << "second echoes in 20 scans";
+    }
   }
 }
 
