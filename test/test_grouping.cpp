@@ -409,45 +409,6 @@ TEST(Grouping, TheFloorsEdgeAlongAStepInTheMiddleOfItsLinesGoesToTheRiser) {
   EXPECT_EQ(step.tread->segments, 4);
 }
 
-TEST(Grouping, ASegmentTheNextLineOverlapsByAFewBeamsIsOnItsPlanesEdge) {
-  // A ramp 0.66 m wide rises at 6 degrees out of a wider floor, crossed by
-  // lines 0.15 m apart (1.6 cm higher each on the ramp). Line 5 meets
-  // it 1 cm up, within the floor's tolerance (1.2 cm), and joins the floor before
-  // the ramp's plane exists; lines 6..12 cross the ramp, and their floor
-  // pieces reach 3 beams into it on each side (where the split broke them).
-  // Line 5's ramp piece has floor beside it on line 4 but only 6 of its 40
-  // beams on line 6: it is on the floor's edge, and goes to the ramp, whose
-  // plane holds it exactly.
-  const double slope = std::tan(6.0 * M_PI / 180.0), x_foot = 1.75 - 0.010 / slope;
-  const auto y = [](int beam) { return -1.0 + (beam - 100) * (2.0 / 119.0); };
-  const auto piece = [&](int line, int b0, int b1, double x, double z) {
-    return seg(line, b0, {x, y(b0), z}, {x, y(b1), z}, b1 - b0 + 1);
-  };
-  std::vector<std::vector<Segment3>> lines;
-  for (int k = 0; k < 13; ++k) {
-    const double x = 1.0 + 0.15 * k;
-    if (k < 5) {
-      lines.push_back({piece(k, 100, 219, x, 0.0)});
-      continue;
-    }
-    const int reach = k == 5 ? 0 : 3;
-    lines.push_back({piece(k, 100, 139 + reach, x, 0.0), piece(k, 140 + reach, 179 - reach, x, slope * (x - x_foot)),
-                     piece(k, 180 - reach, 219, x, 0.0)});
-  }
-  ScanLineGrouper g;
-  const auto planes = group(lines, g);
-  int floors = 0;
-  const Plane* ramp = nullptr;
-  for (const auto& p : planes) {
-    if (std::abs(p.fit.normal.z()) > 0.9999 && std::abs(p.fit.offset) < 1e-9) ++floors;
-    if (std::abs(std::acos(std::abs(p.fit.normal.z())) * 180.0 / M_PI - 6.0) < 0.01) ramp = &p;
-  }
-  EXPECT_EQ(floors, 1);
-  ASSERT_NE(ramp, nullptr);
-  EXPECT_EQ(ramp->segments, 8);  // lines 5..12
-  EXPECT_EQ(ramp->points, 40 + 7 * 34);
-}
-
 TEST(Grouping, APairOfARiserAndATreadLineIsTakenApart) {
   // The riser's lower line comes in three pieces, none half as long as the
   // upper line, so the upper line first pairs with the tread's first line

@@ -464,11 +464,9 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 3 || moved_once[si]) continue;
     const Region& own = regions_[ri];
     const Segment3& s = segs_[si];
-    // On its plane's edge: the members of the line before or of the line
-    // after lie beside less than a third of its beams (a floor's edge along a
-    // step is in the middle of the floor's lines, and a floor that goes on
-    // beside a ramp reaches a few beams into the ramp's lines, where the
-    // split broke them).
+    // On its plane's edge: no member of the line before or of the line after
+    // lies beside it (a floor's edge along a step is in the middle of the
+    // floor's lines).
     // Members are sorted by index, so by line: its neighbours are next to it.
     // Segments come in index order: its place is most often right after the
     // last one looked up in its region (checked; else searched).
@@ -479,22 +477,18 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     else
       ++k;
     const auto at = own.members.begin() + k;
-    int before = 0, after = 0;  // beams beside it
-    const auto shared = [&](const Segment3& m) {
-      return std::max(0, std::min(m.last, s.last) - std::max(m.first, s.first) + 1);
-    };
-    for (auto mi = at; mi != own.members.begin();) {
+    bool before = false, after = false;
+    for (auto mi = at; mi != own.members.begin() && !before;) {
       const Segment3& m = segs_[*--mi];
       if (m.line < s.line - 1) break;
-      if (m.line == s.line - 1) before += shared(m);
+      before = m.line == s.line - 1 && m.first <= s.last && s.first <= m.last;
     }
-    for (auto mi = at + 1; mi < own.members.end(); ++mi) {
+    for (auto mi = at + 1; mi < own.members.end() && !after; ++mi) {
       const Segment3& m = segs_[*mi];
       if (m.line > s.line + 1) break;
-      if (m.line == s.line + 1) after += shared(m);
+      after = m.line == s.line + 1 && m.first <= s.last && s.first <= m.last;
     }
-    const int third = (s.last - s.first + 3) / 3;
-    if (before >= third && after >= third) continue;
+    if (before && after) continue;
     const Eigen::Vector3d c = s.moments.mean();
     const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
     // Only a plane within the tolerance can take it: look before refitting its own.
