@@ -123,7 +123,7 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
   }
   const auto now = [] { return std::chrono::steady_clock::now(); };
   const auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
-  std::vector<double> ours_s, pcl_s;
+  std::vector<double> ours_s, pcl_s, split_s;
   std::size_t our_planes = 0, pcl_planes = 0, our_pts = 0, pcl_pts = 0;
   for (int run = 0; run < 7; ++run) {
     std::vector<tlp::core::Plane> planes;
@@ -142,13 +142,25 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
     pcl_planes = inliers.size();
     pcl_pts = 0;
     for (const auto& in : inliers) pcl_pts += in.indices.size();
+    // The split alone, row by row, as segmentOrganized splits.
+    std::vector<tlp::core::Segment3> segs;
+    std::vector<Eigen::Vector3f> row(static_cast<std::size_t>(n));
+    const auto t2 = now();
+    for (int r = 0; r < n; ++r) {
+      std::copy(pts.begin() + static_cast<std::ptrdiff_t>(r) * n, pts.begin() + static_cast<std::ptrdiff_t>(r + 1) * n,
+                row.begin());
+      segs.clear();
+      tlp::core::splitPolyline(row, head, tlp::core::SplitParams(), r, segs);
+    }
+    split_s.push_back(secs(t2, now()));
   }
   std::size_t valid = 0;
   for (const auto& p : pts) valid += p.allFinite();
   const double ours = medianMs(ours_s), theirs = medianMs(pcl_s);
   std::printf("scene %s, a %d x %d range image from the head (%zu returns), medians of 7 runs\n", scene_name.c_str(), n,
               n, valid);
-  std::printf("segment_cloud (split + grouping): %.2f ms, %zu planes, %zu points in planes\n", ours, our_planes, our_pts);
+  std::printf("segment_cloud (split + grouping): %.2f ms, %zu planes, %zu points in planes (the split alone %.2f ms)\n",
+              ours, our_planes, our_pts, medianMs(split_s));
   std::printf("PCL (integral-image normals + OrganizedMultiPlaneSegmentation): %.2f ms, %zu planes, %zu points in planes\n",
               theirs, pcl_planes, pcl_pts);
   std::printf("ratio=%.3f (1/%.1f)\n", ours / theirs, theirs / ours);
