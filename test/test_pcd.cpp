@@ -184,7 +184,7 @@ TEST(Pcd, SynPebTestCloudThroughSegmentCloud) {
   EXPECT_LE(h.noise, 2);
   // segment_cloud --noise auto: the cloud's own noise is about 1 mm, and
   // tolerances of 6 sigma part the faces that meet at 24 degrees.
-  const core::CloudNoise cn = core::estimateCloudNoise(c.points, c.width, c.height, c.viewpoint);
+  const core::CloudNoise cn = core::estimateCloudNoise(c.points, c.width, c.height, true, c.viewpoint);
   EXPECT_NEAR(cn.sigma, 0.0011, 0.0002);
   EXPECT_NEAR(cn.step * 180.0 / M_PI, 0.14, 0.01);  // the cloud's columns are 0.14 degrees apart
   core::SplitParams sp;

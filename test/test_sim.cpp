@@ -518,10 +518,12 @@ TEST(OrganizedNoise, EstimatedFromTheCloudItself) {
   const Scene s = sim::loadScene("stairs");
   for (double sigma : {0.002, 0.01}) {
     const auto pts = sim::rangeImage(s, head, 200, sigma, 3);
-    const core::CloudNoise cn = core::estimateCloudNoise(pts, 200, 200, head);
+    const core::CloudNoise cn = core::estimateCloudNoise(pts, 200, 200, true, head);
     EXPECT_NEAR(cn.sigma, sigma, 0.15 * sigma) << sigma;
     // Columns 120/199 degrees of azimuth apart, at the median row's elevation of 35 degrees.
     EXPECT_NEAR(cn.step * 180.0 / M_PI, 120.0 / 199.0 * std::cos(35.0 * M_PI / 180.0), 0.01);
+    // Scan lines as columns: the rows' elevations are 50/199 degrees apart.
+    EXPECT_NEAR(core::estimateCloudNoise(pts, 200, 200, false, head).step * 180.0 / M_PI, 50.0 / 199.0, 0.001);
   }
   // A rig's lines offset from each other by up to +-2 cm: the noise across
   // the lines is that of the offsets, and the tolerances stay the defaults.
@@ -535,7 +537,7 @@ TEST(OrganizedNoise, EstimatedFromTheCloudItself) {
       p += d * (p - head.cast<float>()).normalized();
     }
   }
-  const core::CloudNoise cn = core::estimateCloudNoise(pts, 200, 200, head);
+  const core::CloudNoise cn = core::estimateCloudNoise(pts, 200, 200, true, head);
   EXPECT_GT(cn.sigma, 0.008);
   core::SplitParams sp;
   core::GroupingParams gp;
@@ -588,7 +590,7 @@ TEST(OrganizedNoise, ALessNoisyCloudIsJudgedByItsOwnNoise) {
     core::SplitParams sp;
     core::GroupingParams gp;
     const int defaults = correctFaces(pts, faces, 200, head, sp, gp);
-    EXPECT_GT(core::scaleTolerancesToNoise(core::estimateCloudNoise(pts, 200, 200, head), sp, gp), 0.2);
+    EXPECT_GT(core::scaleTolerancesToNoise(core::estimateCloudNoise(pts, 200, 200, true, head), sp, gp), 0.2);
     const int own = correctFaces(pts, faces, 200, head, sp, gp);
     EXPECT_EQ(defaults, 7) << seed;
     EXPECT_EQ(own, 8) << seed;

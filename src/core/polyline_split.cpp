@@ -106,7 +106,7 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
     }
 }
 
-CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int width, int height,
+CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
                               const Eigen::Vector3d& origin) {
   CloudNoise out;
   if (width < 3 && height < 3) return out;
@@ -140,11 +140,12 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
   };
   out.sigma = std::max(sigmaOf(0, 1), sigmaOf(1, 0));
   e.clear();
-  for (int i = 0; i < height; i += stride)
-    for (int j = 1; j < width; j += stride) {
-      const Eigen::Vector3f &a = dir[at(i, j - 1)], &b = dir[at(i, j)];
-      if (std::isfinite(range[at(i, j - 1)]) && std::isfinite(range[at(i, j)]))
-        e.push_back(std::atan2(a.cross(b).norm(), a.dot(b)));
+  const int di = lines_are_rows ? 0 : 1, dj = lines_are_rows ? 1 : 0;  // along a line
+  for (int i = di; i < height; i += stride)
+    for (int j = dj; j < width; j += stride) {
+      const std::size_t ia = at(i - di, j - dj), ib = at(i, j);
+      if (std::isfinite(range[ia]) && std::isfinite(range[ib]))
+        e.push_back(std::atan2(dir[ia].cross(dir[ib]).norm(), dir[ia].dot(dir[ib])));
     }
   out.step = median(100);
   return out;

@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
     core::CloudNoise cn;
     double k = 1.0;
     if (noise != "off") {
-      cn = core::estimateCloudNoise(c.points, c.width, c.height, c.viewpoint);
+      cn = core::estimateCloudNoise(c.points, c.width, c.height, rows, c.viewpoint);
       if (noise_given) cn.sigma = noise_sigma;
       k = core::scaleTolerancesToNoise(cn, split, grouping);
     }

@@ -45,10 +45,10 @@ struct CloudNoise {
   /// the larger of the two. Across the scan lines it holds what differs from
   /// line to line too (a tilting rig's offsets between its lines).
   double sigma = 0.0;
-  double step = 0.0;  ///< the median angle between neighbouring beams along the rows [rad]
+  double step = 0.0;  ///< the median angle between neighbouring beams along the scan lines [rad]
 };
 /// Zeros when fewer than 100 neighbours are valid.
-CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int width, int height,
+CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
                               const Eigen::Vector3d& origin);
 
 /// The noise the default tolerances are made for: they hold with the
