@@ -596,3 +596,30 @@ TEST(OrganizedNoise, ALessNoisyCloudIsJudgedByItsOwnNoise) {
     EXPECT_EQ(own, 8) << seed;
   }
 }
+
+TEST(OrganizedNoise, PointsWithoutARangeAreLeftOut) {
+  const Eigen::Vector3d head = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").axis_origin;
+  std::vector<Eigen::Vector3f> pts = sim::rangeImage(sim::loadScene("stairs"), head, 200, 0.002, 3);
+  // Every tenth point NaN, infinite, huge or at the sensor itself.
+  const float inf = std::numeric_limits<float>::infinity();
+  for (std::size_t i = 0; i < pts.size(); i += 10) {
+    switch ((i / 10) % 4) {
+      case 0: pts[i] = Eigen::Vector3f::Constant(NAN); break;
+      case 1: pts[i] = Eigen::Vector3f(inf, 0, 0); break;
+      case 2: pts[i] = Eigen::Vector3f::Constant(1e30f); break;
+      default: pts[i] = head.cast<float>(); break;
+    }
+  }
+  const core::CloudNoise cn = core::estimateCloudNoise(pts, 200, 200, true, head);
+  EXPECT_NEAR(cn.sigma, 0.002, 0.0003);
+  EXPECT_NEAR(cn.step * 180.0 / M_PI, 120.0 / 199.0 * std::cos(35.0 * M_PI / 180.0), 0.01);
+  // Nothing valid: no estimate, and the defaults stay.
+  const std::vector<Eigen::Vector3f> none(400, Eigen::Vector3f::Constant(NAN));
+  const core::CloudNoise zero = core::estimateCloudNoise(none, 20, 20, true, head);
+  EXPECT_EQ(zero.sigma, 0.0);
+  EXPECT_EQ(zero.step, 0.0);
+  core::SplitParams sp;
+  core::GroupingParams gp;
+  EXPECT_EQ(core::scaleTolerancesToNoise(zero, sp, gp), 1.0);
+  EXPECT_EQ(sp.zeta, core::SplitParams().zeta);
+}

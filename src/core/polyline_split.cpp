@@ -114,9 +114,10 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
   std::vector<float> range(points.size());
   std::vector<Eigen::Vector3f> dir(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
-    const bool ok = points[i].allFinite();
-    range[i] = ok ? (points[i] - o).norm() : std::numeric_limits<float>::quiet_NaN();
-    dir[i] = ok ? Eigen::Vector3f((points[i] - o) / range[i]) : Eigen::Vector3f::Zero();
+    const float r = points[i].allFinite() ? (points[i] - o).norm() : 0.0f;
+    const bool ok = r > 0.0f && std::isfinite(r);  // a point at the origin has no direction
+    range[i] = ok ? r : std::numeric_limits<float>::quiet_NaN();
+    dir[i] = ok ? Eigen::Vector3f((points[i] - o) / r) : Eigen::Vector3f::Zero();
   }
   // About 20,000 samples a direction are plenty for a median; a large cloud
   // is sampled on a grid.
