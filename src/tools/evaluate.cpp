@@ -13,9 +13,10 @@ using namespace tilt_laser_perception;
 
 static void usage() {
   std::fprintf(stderr,
-               "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--no-skew] [--fixed D]\n"
+               "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--tilt-range MIN,MAX] [--no-skew] [--fixed D]\n"
                "                [--verbose] [--dump PREFIX] [--calibration FILE | --errors-known]\n"
                "                [--walk SPEED [--path straight|turn|step] [--no-pose] ...] [--echo first|last|strongest]\n"
+               "  --tilt-range MIN,MAX  the sweep's range [deg] (the driver's ~tilt_min, ~tilt_max; default 10,60)\n"
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
                "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them\n"
@@ -50,6 +51,12 @@ int main(int argc, char** argv) {
     else if (a == "--sweeps" && v) o.sweeps = std::atoi(argv[++i]);
     else if (a == "--seed" && v) o.seed = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--speed" && v) o.profile.speed = std::atof(argv[++i]);
+    else if (a == "--tilt-range" && v) {
+      double lo = 0.0, hi = 0.0;
+      if (std::sscanf(argv[++i], "%lf,%lf", &lo, &hi) != 2 || !(lo < hi)) { usage(); return 2; }
+      o.profile.min_angle = lo * M_PI / 180.0;
+      o.profile.max_angle = hi * M_PI / 180.0;
+    }
     else if (a == "--no-skew") o.sweep.per_beam = false;
     else if (a == "--no-pose") o.pose_per_line = false;
     else if (a == "--fused-resolution" && v) o.fused.resolution = std::atof(argv[++i]);
@@ -73,6 +80,10 @@ int main(int argc, char** argv) {
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
   if (o.sweeps < 1 || !(o.profile.speed > 0)) { usage(); return 2; }
+  if (const std::string e = o.profile.validate(); !e.empty()) {
+    std::fprintf(stderr, "evaluate: %s\n", e.c_str());
+    return 2;
+  }
   if (errors_known) o.calibration = o.rig.calibration();
   try {
     const auto evals = sim::evaluateScene(o);
