@@ -200,6 +200,8 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bo
     const double d2 = std::abs(r.fit.normal.dot(s.end) - r.fit.offset);
     const double dc = std::abs(r.fit.normal.dot(s.moments.mean()) - r.fit.offset);
     if (std::max(d1, d2) > 1.5 * thr) return false;
+    if (s.length() > 0.15 && std::abs((s.end - s.start).normalized().dot(r.fit.normal)) > std::sin(p_.angle_deg * kDeg))
+      return false;
     const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
     if (dc > tol) {
       // Beyond the lines that fixed it a plane's place is as uncertain as its
@@ -216,8 +218,6 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bo
           rmsAbout(r.moments, f) > 0.5 * thr)
         return false;
     }
-    if (s.length() > 0.15 && std::abs((s.end - s.start).normalized().dot(r.fit.normal)) > std::sin(p_.angle_deg * kDeg))
-      return false;
     score = std::max(d1, d2) / thr;
     return true;
   }
