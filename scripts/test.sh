@@ -17,13 +17,15 @@ rm -rf build/tilt_laser_perception/test_results
 # rostest needs a writable ROS_HOME for its logs
 export ROS_HOME="${ROS_HOME:-$ws/ros_home}"
 status=0
-# A test that fails runs once more and must pass then: the rostests that time
-# the driver's stamps against the emulator (1 ms at the 99th percentile) fail
-# when this shared 2-core machine stalls the emulator and the driver for
-# milliseconds (2026-12-03: p99 2.8 ms in one CI run, 0.1-0.35 ms usually).
-colcon test --packages-select tilt_laser_perception --event-handlers console_direct+ --return-code-on-test-failure \
-  --ctest-args ' --repeat' 'until-pass:2' ||
-  status=1
+run_ctest() { colcon test --packages-select tilt_laser_perception --event-handlers console_direct+ \
+  --return-code-on-test-failure --ctest-args "$@"; }
+# Every test once, but the drift rostests: they time the driver's stamps
+# against the emulator (1 ms at the 99th percentile) and fail when this shared
+# 2-core machine stalls the emulator and the driver for milliseconds
+# (2026-12-03: p99 2.8 ms in one CI run, 0.1-0.35 ms usually), so one that
+# fails runs once more and must pass then.
+run_ctest ' -E' 'driver_drift' || status=1
+run_ctest ' -R' 'driver_drift' ' --repeat' 'until-pass:2' || status=1
 colcon test-result --verbose --test-result-base build/tilt_laser_perception || status=1
 bash "$here/scripts/sanitize.sh" all || { echo "sanitizer tests FAILED"; status=1; }
 bash "$here/scripts/fuzz.sh" "${TLP_FUZZ_SECONDS:-30}" || { echo "fuzzing FAILED"; status=1; }
