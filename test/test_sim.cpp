@@ -530,11 +530,11 @@ int correctFaces(const std::vector<Eigen::Vector3f>& pts, const std::vector<int>
   std::vector<core::Plane> planes;
   std::vector<std::uint32_t> labels;
   core::segmentOrganized(pts, n, n, true, origin, sp, gp, planes, labels);
-  std::vector<int> found(labels.size());
-  for (std::size_t i = 0; i < labels.size(); ++i) found[i] = static_cast<int>(labels[i]) - 1;
   std::map<int, int> count;
   for (int f : faces) ++count[f];
-  return sim::hooverScore(sim::RegionOverlap::of(faces, found), 0.8, [&](int f) { return count[f] >= 100; }).correct;
+  return sim::hooverScore(sim::RegionOverlap::ofPlaneLabels(faces, labels, pts), 0.8,
+                          [&](int f) { return count[f] >= 100; })
+      .correct;
 }
 }  // namespace
 

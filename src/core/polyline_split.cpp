@@ -111,14 +111,12 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
   CloudNoise out;
   if (width < 3 && height < 3) return out;
   const Eigen::Vector3f o = origin.cast<float>();
-  std::vector<float> range(points.size());
-  std::vector<Eigen::Vector3f> dir(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
+  // A point's range (NaN: none) and direction, for the points sampled only.
+  const auto range = [&](std::size_t i) {
     const float r = points[i].allFinite() ? (points[i] - o).norm() : 0.0f;
-    const bool ok = r > 0.0f && std::isfinite(r);  // a point at the origin has no direction
-    range[i] = ok ? r : std::numeric_limits<float>::quiet_NaN();
-    dir[i] = ok ? Eigen::Vector3f((points[i] - o) / r) : Eigen::Vector3f::Zero();
-  }
+    return r > 0.0f && std::isfinite(r) ? r : std::numeric_limits<float>::quiet_NaN();  // the origin has no direction
+  };
+  const auto dir = [&](std::size_t i, float r) { return Eigen::Vector3f((points[i] - o) / r); };
   // About 20,000 samples a direction are plenty for a median; a large cloud
   // is sampled on a grid.
   const int stride = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(points.size()) / 20000.0)));
@@ -134,7 +132,7 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
     e.clear();
     for (int i = di; i + di < height; i += stride)
       for (int j = dj; j + dj < width; j += stride) {
-        const float a = range[at(i - di, j - dj)], b = range[at(i, j)], c = range[at(i + di, j + dj)];
+        const float a = range(at(i - di, j - dj)), b = range(at(i, j)), c = range(at(i + di, j + dj));
         if (std::isfinite(a) && std::isfinite(b) && std::isfinite(c)) e.push_back(std::abs(b - 0.5f * (a + c)));
       }
     return 1.4826 * median(100) / std::sqrt(1.5);
@@ -145,8 +143,11 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
   for (int i = di; i < height; i += stride)
     for (int j = dj; j < width; j += stride) {
       const std::size_t ia = at(i - di, j - dj), ib = at(i, j);
-      if (std::isfinite(range[ia]) && std::isfinite(range[ib]))
-        e.push_back(std::atan2(dir[ia].cross(dir[ib]).norm(), dir[ia].dot(dir[ib])));
+      const float ra = range(ia), rb = range(ib);
+      if (std::isfinite(ra) && std::isfinite(rb)) {
+        const Eigen::Vector3f ua = dir(ia, ra), ub = dir(ib, rb);
+        e.push_back(std::atan2(ua.cross(ub).norm(), ua.dot(ub)));
+      }
     }
   out.step = median(100);
   return out;

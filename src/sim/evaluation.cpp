@@ -36,6 +36,14 @@ RegionOverlap RegionOverlap::of(const std::vector<int>& truth, const std::vector
   return o;
 }
 
+RegionOverlap RegionOverlap::ofPlaneLabels(const std::vector<int>& truth, const std::vector<std::uint32_t>& labels,
+                                           const std::vector<Eigen::Vector3f>& points) {
+  RegionOverlap o;
+  for (std::size_t i = 0; i < truth.size() && i < labels.size() && i < points.size(); ++i)
+    if (points[i].allFinite()) o.add(truth[i], static_cast<int>(labels[i]) - 1);
+  return o;
+}
+
 HooverScore hooverScore(const RegionOverlap& o, double T, const std::function<bool(int)>& expected,
                         int min_noise_points) {
   HooverScore h;

@@ -94,14 +94,8 @@ int main(int argc, char** argv) {
                   p.fit.normal.x(), p.fit.normal.y(), p.fit.normal.z(), p.fit.offset, p.fit.centroid.x(),
                   p.fit.centroid.y(), p.fit.centroid.z(), p.fit.rms);
     if (!truth.name.empty()) {
-      // Points without coordinates are judged by no one.
-      std::vector<int> found(labels.size()), truth_labels(c.truth);
-      for (std::size_t i = 0; i < labels.size(); ++i) {
-        found[i] = static_cast<int>(labels[i]) - 1;
-        if (!c.points[i].allFinite()) truth_labels[i] = found[i] = -1;
-      }
-      const sim::RegionOverlap ov = sim::RegionOverlap::of(truth_labels, found);
-      const sim::HooverScore h = sim::hooverScore(ov, overlap, [](int) { return true; });
+      const sim::HooverScore h =
+          sim::hooverScore(sim::RegionOverlap::ofPlaneLabels(c.truth, labels, c.points), overlap, [](int) { return true; });
       std::printf("truth '%s': %d planes; at %.0f %% overlap: correct=%d over=%d under=%d missed=%d noise=%d\n",
                   truth.name.c_str(), h.expected, overlap * 100.0, h.correct, h.over, h.under, h.missed, h.noise);
     }

@@ -5,6 +5,7 @@
  */
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <string>
@@ -37,6 +38,11 @@ struct RegionOverlap {
   void add(int truth, int found);              ///< one point; -1: in no region
   /// From one label per point (-1: none).
   static RegionOverlap of(const std::vector<int>& truth, const std::vector<int>& found);
+  /// From an organized cloud's plane labels as core::segmentOrganized gives
+  /// them (0: none, else plane id + 1) against its true labels (-1: none);
+  /// points without coordinates count for neither.
+  static RegionOverlap ofPlaneLabels(const std::vector<int>& truth, const std::vector<std::uint32_t>& labels,
+                                     const std::vector<Eigen::Vector3f>& points);
 };
 
 /// Hoover et al.'s comparison ("An experimental comparison of range image
