@@ -409,6 +409,36 @@ TEST(Grouping, TheFloorsEdgeAlongAStepInTheMiddleOfItsLinesGoesToTheRiser) {
   EXPECT_EQ(step.tread->segments, 4);
 }
 
+TEST(Grouping, ALineOffsetTowardsTheFloorAtARampsFootGoesToTheSideOfTheCreaseItIsOn) {
+  // A floor (lines 0..9, x 1.0 .. 1.45) and a ramp rising at 12 degrees
+  // (within the merge angle of the floor) from x = 1.5 (lines 10..20, to x
+  // 2.5). Line 10 lies 4 cm up the ramp (0.85 cm above the floor), and the
+  // rig put it 0.8 cm low: 0.05 cm from the floor, 0.8 cm from the ramp.
+  // Nearer the floor, which took it first; but on the ramp's side of the
+  // crease, which an offset along the planes' mean normal does not move: it
+  // goes to the ramp (the floor kept it, 11 and 10 segments, before).
+  const double t = std::tan(12.0 * M_PI / 180.0);
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k <= 20; ++k) {
+    const double x = k < 10 ? 1.0 + 0.05 * k : k == 10 ? 1.54 : 1.6 + 0.1 * (k - 11);
+    const double z = k < 10 ? 0.0 : (x - 1.5) * t - (k == 10 ? 0.008 : 0.0);
+    lines.push_back({seg(k, 100, {x, -0.6, z}, {x, 0.6, z}, 60)});
+  }
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  const Plane* floor = nullptr;
+  const Plane* ramp = nullptr;
+  for (const auto& p : planes) {
+    const double tilt = std::acos(std::min(1.0, std::abs(p.fit.normal.z()))) * 180.0 / M_PI;
+    if (tilt < 1.0) floor = &p;
+    if (std::abs(tilt - 12.0) < 1.0) ramp = &p;
+  }
+  ASSERT_EQ(planes.size(), 2u);
+  ASSERT_TRUE(floor && ramp);
+  EXPECT_EQ(floor->segments, 10);
+  EXPECT_EQ(ramp->segments, 11);
+}
+
 TEST(Grouping, APairOfARiserAndATreadLineIsTakenApart) {
   // The riser's lower line comes in three pieces, none half as long as the
   // upper line, so the upper line first pairs with the tread's first line
