@@ -859,8 +859,6 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     const Region& own = regions_[ri];
     const std::vector<Eigen::Vector3f>* pts = nullptr;
     PlaneFit fa;  // its own plane, without it if the rest has two lines or more
-    Moments3 near_own;  // its own plane's other members on the lines near it
-    near_own.n = -1.0;  // not summed yet
     const double thr = p_.threshold(s.range);
     Cut best{-1, 0, 0, -1};
     PlaneFit best_fit;
@@ -883,18 +881,29 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       // plane's members near it lie behind the other plane, as seen from the
       // sensor; concave (a riser's foot) when in front. Not clear by the
       // tolerance: no crease to cut at.
-      if (near_own.n < 0.0) {  // the same for every other plane: summed once
-        near_own = Moments3();
-        const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
-        for (auto mi = a0; mi != a1; ++mi)
-          if (*mi != static_cast<int>(si)) near_own += segs_[*mi].moments;
+      // Its own plane's other members on the lines near it, on the beams
+      // lo..hi beside the other plane only: a floor goes on beside a ramp,
+      // and there it lies behind the ramp's plane (the ramp's foot seen as
+      // convex). A member's part on those beams: the point of its line at
+      // their middle, weighed by their share of its points.
+      double near_n = 0.0;
+      Eigen::Vector3d near_sum = Eigen::Vector3d::Zero();
+      const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+      for (auto mi = a0; mi != a1; ++mi) {
+        const Segment3& m = segs_[*mi];
+        const int b0 = std::max(m.first, lo), b1 = std::min(m.last, hi);
+        if (*mi == static_cast<int>(si) || b1 < b0) continue;
+        const double span = std::max(1, m.last - m.first);
+        const double n = m.moments.n * (b1 - b0 + 1) / (m.last - m.first + 1);
+        near_n += n;
+        near_sum += n * (m.start + (m.end - m.start) * ((0.5 * (b0 + b1) - m.first) / span));
       }
-      if (near_own.n < p_.min_points) return true;
+      if (near_n < p_.min_points) return true;
       const auto inFront = [&](const PlaneFit& f, const Eigen::Vector3d& x) {
         const double d = f.normal.dot(x) - f.offset;
         return f.normal.dot(s.origin) > f.offset ? d : -d;  // normal turned to the sensor
       };
-      const double side = inFront(of, near_own.mean()) + inFront(own.fit, near_other.mean());
+      const double side = inFront(of, near_sum / near_n) + inFront(own.fit, near_other.mean());
       const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
       if (std::abs(side) < tol) return true;
       const bool convex = side < 0.0;
