@@ -691,14 +691,14 @@ TEST(Grouping, ALineAlongARisersFootIsCutWhereItsRaysMeetTheRiser) {
 TEST(Grouping, ALineOverARampsFootIsCutWhereItsRaysMeetTheRampThoughTheFloorGoesOnBesideIt) {
   // A ramp 0.6 m wide (|y| <= 0.3) rising at kRampDeg from x = 1.5 in a floor
   // that goes on beside it, seen from kStepSensor; lines aimed at the floor
-  // from x = 1.0 to 2.4, beams y = -1.5 .. 1.5 (the ramp's 48..72). A line that meets the ramp
-  // less than 2.5 cm up is one segment (too gentle a step at the ramp's
-  // sides for the split), and the floor takes it. The crease between floor
-  // and ramp is concave; by the floor's members near such a line it looked
-  // convex, as they lie behind the ramp's plane beside the ramp (the floor
-  // beyond the ramp's foot), and the line stayed whole. Judged by the
-  // floor's members beside the ramp's beams, the ramp's beams of those lines
-  // go to the ramp.
+  // from x = 1.0 to 2.4, beams y = -1.5 .. 1.5 (the ramp's 48..72). A line
+  // that meets the ramp less than 2.5 cm up is one segment (too gentle a step
+  // at the ramp's sides for the split), and the floor takes it. The crease
+  // between floor and ramp is concave; by all the floor's members near such
+  // a line it was no crease (they lie behind the ramp's plane beside the
+  // ramp, in front of it before its foot: their mean within the tolerance of
+  // it), and the line stayed whole. Judged by the floor's members beside the
+  // ramp's beams, the ramp's beams of those lines go to the ramp.
   constexpr double kRampDeg = 12.0;
   const double k = std::tan(kRampDeg * M_PI / 180.0);
   const Eigen::Vector3d o = kStepSensor;

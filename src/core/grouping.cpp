@@ -883,9 +883,10 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       // tolerance: no crease to cut at.
       // Its own plane's other members on the lines near it, on the beams
       // lo..hi beside the other plane only: a floor goes on beside a ramp,
-      // and there it lies behind the ramp's plane (the ramp's foot seen as
-      // convex). A member's part on those beams: the point of its line at
-      // their middle, weighed by their share of its points.
+      // and there it lies behind the ramp's plane (by all its members near,
+      // the ramp's foot was no crease or a convex one). A member's part on
+      // those beams: the point of its line at their middle, weighed by their
+      // share of its points.
       double near_n = 0.0;
       Eigen::Vector3d near_sum = Eigen::Vector3d::Zero();
       const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
