@@ -252,6 +252,10 @@ bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
   // within +-thr of one surface may tilt by atan(2 thr / w)), so it is
   // judged by its fit with the other, not by extrapolating it.
   const double thr = p_.threshold(std::min((a.fit.centroid - sensor_).norm(), (b.fit.centroid - sensor_).norm()));
+  // Two strips of lines too close together to fix a normal fit one plane
+  // whatever they saw (the scan plane): one of them must fix it (or be a
+  // piece of one line, which joins a strip as it would join by itself).
+  if (!planar(a) && !planar(b) && a.lines > 1 && b.lines > 1) return false;
   if (std::abs(a.fit.normal.dot(b.fit.normal)) < std::cos(p_.merge_angle_deg * kDeg)) return false;
   const auto slack = [&](const Region& r) {
     const double width = std::sqrt(12.0) * r.fit.spread(1);  // across its lines, for points spread evenly
@@ -279,8 +283,32 @@ void ScanLineGrouper::addMember(int region, int si) {
   seg_region_[si] = region;
 }
 
+namespace {
+constexpr double kSinNearScanPlane = 0.5;  // sin 30 degrees
+}  // namespace
+
+double ScanLineGrouper::spreadAcross(const Region& r) {
+  if (r.across.isZero() || r.moments.n < 1.0) return r.fit.spread(1);
+  // Within the plane, across the lines: the scan plane's normal projected on
+  // it. Where the plane lies near the scan plane, one line's own spread
+  // within it (two pieces of a line at an angle) would pass for a spread
+  // across lines: counted less, in proportion.
+  const Eigen::Vector3d v = r.across - r.across.dot(r.fit.normal) * r.fit.normal;
+  const double sin_apart = v.norm();
+  if (sin_apart < 1e-9) return 0.0;
+  const Eigen::Vector3d c = r.moments.mean();
+  const Eigen::Matrix3d cov = r.moments.ss / r.moments.n - c * c.transpose();
+  const double along = std::sqrt(std::max(0.0, v.dot(cov * v))) / sin_apart;
+  return std::min(r.fit.spread(1), along * std::min(1.0, sin_apart / kSinNearScanPlane));
+}
+
 int ScanLineGrouper::newRegion(int si) {
   Region r;
+  const Segment3& s = segs_[si];
+  if (s.origin.allFinite()) {
+    const Eigen::Vector3d n = (s.start - s.origin).cross(s.end - s.origin);
+    if (n.norm() > 1e-9) r.across = n.normalized();
+  }
   r.moments = segs_[si].moments;
   r.members = {si};
   r.first_line = r.last_line = segs_[si].line;
@@ -588,6 +616,7 @@ void ScanLineGrouper::absorb(int into, int from) {
   a.last_line = std::max(a.last_line, b.last_line);
   a.lines = countLines(a.members, segs_);
   a.fit = fitPlane(a.moments);
+  if (a.across.isZero()) a.across = b.across;
   b.dead = true;
   b.members.clear();
 }
@@ -727,7 +756,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     // fit planes tilted by tens of degrees within their noise (a tread seen
     // by two lines from a step), and a strip that many lines cross at one
     // place (something that tilts with the laser) is no surface.
-    if (p.fit.spread(1) <= kPlanarSpread) continue;
+    if (spreadAcross(r) <= kPlanarSpread) continue;
     if (p.fit.normal.dot(sensor_ - p.fit.centroid) < 0.0) {
       p.fit.normal = -p.fit.normal;
       p.fit.offset = -p.fit.offset;

@@ -2,13 +2,14 @@
 // grouping, height map), as replay.launch does in real time, and prints each
 // sweep's planes. For recordings of other rigs after import_tilt_bag.py.
 //   group_bag BAG --urdf FILE [--frame base_footprint] [--joint head_tilt_joint] [--laser laser]
-//             [--calibration FILE] [--dump PREFIX] [--room]
+//             [--calibration FILE] [--dump PREFIX] [--room] [--floor-z Z]
 // --calibration applies calibrate's output (joint offset, time offset, the mount).
 // --dump writes each sweep's points with their plane (PREFIX_sweepK.pcd, ascii x y z label, 0: none).
 // --room judges each sweep as a room: the floor (the lowest level that holds
-// 2 % of the points, +-5 cm) and the largest wall (the vertical plane with the
-// most points within 5 cm, found by a Hough vote over all points), each by
-// the share of its points that the largest plane on it holds.
+// 2 % of the points, or the level that --floor-z Z [m] names, +-5 cm) and the
+// largest wall (the vertical plane with the most points within 5 cm, found by
+// a Hough vote over all points), each by the share of its points that the
+// largest plane on it holds.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -27,7 +28,7 @@ namespace {
 void usage() {
   std::fprintf(stderr,
                "usage: group_bag BAG --urdf FILE [--frame F] [--joint J] [--laser L] [--calibration FILE] [--dump PREFIX]\n"
-               "                 [--room]\n");
+               "                 [--room] [--floor-z Z]\n");
 }
 
 struct Share {
@@ -56,21 +57,19 @@ Share share(const core::SweepResult& sw, const std::vector<std::vector<int>>& la
   return s;
 }
 
-void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>& label) {
+void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>& label, double floor_at) {
   std::vector<Eigen::Vector3f> pts;
   for (const auto& l : sw.lines)
     for (const auto& p : l.points)
       if (p.allFinite()) pts.push_back(p);
   if (pts.size() < 100) return;
-  // The floor: the lowest 1 cm level holding 2 % of the points.
+  // The floor: the level given, else the lowest 1 cm level holding 2 % of the
+  // points (the surface the rig stands on, which need not be the room's floor).
   std::map<int, int> zbins;
   for (const auto& p : pts) ++zbins[static_cast<int>(std::floor(p.z() / 0.01))];
-  double floor_z = NAN;
+  double floor_z = floor_at;
   for (const auto& [b, n] : zbins)
-    if (n >= 0.02 * pts.size()) {
-      floor_z = (b + 0.5) * 0.01;
-      break;
-    }
+    if (std::isnan(floor_z) && n >= 0.02 * pts.size()) floor_z = (b + 0.5) * 0.01;
   const Share floor = share(sw, label, [&](const Eigen::Vector3f& p) { return std::abs(p.z() - floor_z) < 0.05; });
   // The largest wall: a Hough vote of the points above the floor over
   // vertical planes x cos(a) + y sin(a) = d (1 degree, 2 cm).
@@ -105,6 +104,7 @@ int main(int argc, char** argv) {
   o.sweep.max_lines = 5000;  // a slow stand sweeps with many lines
   std::string dump;
   bool room = false;
+  double floor_z = NAN;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     try {
@@ -115,6 +115,10 @@ int main(int argc, char** argv) {
     }
     if (a == "--dump" && i + 1 < argc) dump = argv[++i];
     else if (a == "--room") room = true;
+    else if (a == "--floor-z" && i + 1 < argc) {
+      room = true;
+      floor_z = std::stod(argv[++i]);
+    }
     else if (a[0] != '-' && o.bag.empty()) o.bag = a;
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
@@ -137,7 +141,7 @@ int main(int argc, char** argv) {
       std::printf("  plane %d: %d points, %.2f m^2, normal (%.3f %.3f %.3f), offset %.3f m, rms %.4f m\n", p.id,
                   p.points, p.area, p.fit.normal.x(), p.fit.normal.y(), p.fit.normal.z(), p.fit.offset, p.fit.rms);
     }
-    if (room) judgeRoom(sw, label);
+    if (room) judgeRoom(sw, label, floor_z);
     if (!dump.empty()) {
       io::OrganizedCloud c;
       std::vector<std::uint32_t> labels;

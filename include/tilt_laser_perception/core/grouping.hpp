@@ -114,13 +114,22 @@ class ScanLineGrouper {
     int lines = 0;       // distinct scan lines among the members
     PlaneFit fit;
     bool dead = false;   // merged into another
+    /// The scan plane's normal at its first segment (zero: unknown). The
+    /// points of one scan line all lie in its scan plane, which they fit
+    /// whatever the surface: only their spread out of it, across the lines,
+    /// fixes the surface's normal.
+    Eigen::Vector3d across = Eigen::Vector3d::Zero();
   };
   /// Whether s may join r (and a score, lowest best). `lone`: s is a segment
   /// no plane took (the late joins); beyond the tolerance of r's plane it
   /// may still join if r's plane refitted with it takes it.
   bool fits(const Region& r, const Segment3& s, double& score, bool lone = false) const;
+  /// How far r's points spread across its lines within its plane [m]
+  /// (counted less where the plane lies within 30 degrees of its first scan
+  /// plane, where one line's own spread would pass for it).
+  static double spreadAcross(const Region& r);
   /// Whether r's lines lie far enough apart to fix its normal.
-  static bool planar(const Region& r) { return r.last_line > r.first_line && r.fit.spread(1) > kPlanarSpread; }
+  static bool planar(const Region& r) { return r.last_line > r.first_line && spreadAcross(r) > kPlanarSpread; }
   /// Points spread this much across their lines, or more, fix a normal [m].
   static constexpr double kPlanarSpread = 0.02;
   /// Three lines or more span a plane (two parallel lines fit any plane
