@@ -61,7 +61,7 @@ rig_bag="$here/../shared/data/real/tilting_lidar_scanner/room_240.bag"
 if [ -f "$rig_bag" ]; then
   echo "== Another rig's recording: tilting_lidar_scanner room_240 (URG-04LX on a hobby servo), imported and grouped"
   python3 "$here/scripts/import_tilt_bag.py" "$rig_bag" "$out/room_240_tlp.bag" | tee "$out/room_240.txt"
-  "$bin/group_bag" "$out/room_240_tlp.bag" --urdf "$out/room_240_tlp.urdf" --room --dump "$out/room_240" |
+  "$bin/group_bag" "$out/room_240_tlp.bag" --urdf "$out/room_240_tlp.urdf" --floor-z 0.10 --dump "$out/room_240" |
     tee -a "$out/room_240.txt"
   "$bin/calibrate" "$out/room_240_tlp.bag" --urdf "$out/room_240_tlp.urdf" 2>/dev/null | tee -a "$out/room_240.txt"
   python3 "$here/scripts/plot_cloud.py" "$out/room_240_sweep0.pcd" "$out/room_240.png" \
