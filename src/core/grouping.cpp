@@ -755,7 +755,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     // segment is judged by its plane (planar()): two lines a centimetre apart
     // fit planes tilted by tens of degrees within their noise (a tread seen
     // by two lines from a step), and a strip that many lines cross at one
-    // place (something that tilts with the laser) is no surface.
+    // place (room_240's table edge under the laser) is no surface.
     if (spreadAcross(r) <= kPlanarSpread) continue;
     if (p.fit.normal.dot(sensor_ - p.fit.centroid) < 0.0) {
       p.fit.normal = -p.fit.normal;

@@ -117,7 +117,12 @@ int main(int argc, char** argv) {
     else if (a == "--room") room = true;
     else if (a == "--floor-z" && i + 1 < argc) {
       room = true;
-      floor_z = std::stod(argv[++i]);
+      char* end = nullptr;
+      floor_z = std::strtod(argv[++i], &end);
+      if (end == argv[i] || *end != '\0' || !std::isfinite(floor_z)) {
+        std::fprintf(stderr, "group_bag: --floor-z wants a height in metres, not '%s'\n", argv[i]);
+        return 2;
+      }
     }
     else if (a[0] != '-' && o.bag.empty()) o.bag = a;
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
