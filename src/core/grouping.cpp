@@ -293,13 +293,13 @@ double ScanLineGrouper::spreadAcross(const Region& r) {
   // it. Where the plane lies near the scan plane, one line's own spread
   // within it (two pieces of a line at an angle) would pass for a spread
   // across lines: counted less, in proportion.
+  // (|v| is the sine of the angle between the planes; the spread along v,
+  // divided by |v|, is the spread along the unit direction.)
   const Eigen::Vector3d v = r.across - r.across.dot(r.fit.normal) * r.fit.normal;
-  const double sin_apart = v.norm();
-  if (sin_apart < 1e-9) return 0.0;
   const Eigen::Vector3d c = r.moments.mean();
   const Eigen::Matrix3d cov = r.moments.ss / r.moments.n - c * c.transpose();
-  const double along = std::sqrt(std::max(0.0, v.dot(cov * v))) / sin_apart;
-  return std::min(r.fit.spread(1), along * std::min(1.0, sin_apart / kSinNearScanPlane));
+  const double along = std::sqrt(std::max(0.0, v.dot(cov * v))) / std::max(v.norm(), kSinNearScanPlane);
+  return std::min(r.fit.spread(1), along);
 }
 
 int ScanLineGrouper::newRegion(int si) {

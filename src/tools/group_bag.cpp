@@ -65,11 +65,16 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
   if (pts.size() < 100) return;
   // The floor: the level given, else the lowest 1 cm level holding 2 % of the
   // points (the surface the rig stands on, which need not be the room's floor).
-  std::map<int, int> zbins;
-  for (const auto& p : pts) ++zbins[static_cast<int>(std::floor(p.z() / 0.01))];
   double floor_z = floor_at;
-  for (const auto& [b, n] : zbins)
-    if (std::isnan(floor_z) && n >= 0.02 * pts.size()) floor_z = (b + 0.5) * 0.01;
+  if (std::isnan(floor_z)) {
+    std::map<int, int> zbins;
+    for (const auto& p : pts) ++zbins[static_cast<int>(std::floor(p.z() / 0.01))];
+    for (const auto& [b, n] : zbins)
+      if (n >= 0.02 * pts.size()) {
+        floor_z = (b + 0.5) * 0.01;
+        break;
+      }
+  }
   const Share floor = share(sw, label, [&](const Eigen::Vector3f& p) { return std::abs(p.z() - floor_z) < 0.05; });
   // The largest wall: a Hough vote of the points above the floor over
   // vertical planes x cos(a) + y sin(a) = d (1 degree, 2 cm).
