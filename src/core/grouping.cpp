@@ -171,16 +171,28 @@ std::string GroupingParams::validate() const {
 
 std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> ScanLineGrouper::membersIn(
     const Region& r, int line_lo, int line_hi) const {
-  // Members are segment indices in increasing order, and segments come line by line.
-  const auto lo = std::lower_bound(r.members.begin(), r.members.end(), line_lo,
-                                   [&](int m, int line) { return segs_[m].line < line; });
-  const auto hi = std::upper_bound(lo, r.members.end(), line_hi, [&](int line, int m) { return line < segs_[m].line; });
+  // Members are segment indices in increasing order, and segments come line
+  // by line: the lines' bounds are bounds on the indices themselves.
+  const auto lo = std::lower_bound(r.members.begin(), r.members.end(), firstSegmentOf(line_lo));
+  const auto hi = std::lower_bound(lo, r.members.end(), firstSegmentOf(line_hi + 1));
   return {lo, hi};
+}
+
+int ScanLineGrouper::firstSegmentOf(int line) const {
+  if (line <= 0) return 0;
+  return line < static_cast<int>(line_start_.size()) ? line_start_[line] : static_cast<int>(segs_.size());
+}
+
+void ScanLineGrouper::indexLines() {
+  line_start_.clear();
+  for (std::size_t i = 0; i < segs_.size(); ++i)
+    while (static_cast<int>(line_start_.size()) <= segs_[i].line) line_start_.push_back(static_cast<int>(i));
 }
 
 void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
   sensor_ = sensor;
   segs_.clear();
+  line_start_.clear();
   seg_region_.clear();
   regions_.clear();
   open_.clear();
@@ -628,6 +640,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
   // a long and a short piece pairs by the long one, whose plane is then
   // well fixed for the short one (the other way round it is not).
   const int first_idx = static_cast<int>(segs_.size());
+  while (static_cast<int>(line_start_.size()) <= l) line_start_.push_back(first_idx);
   segs_.insert(segs_.end(), line.begin(), line.end());
   seg_region_.resize(segs_.size(), -1);
   order_.resize(line.size());
@@ -636,7 +649,8 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
   for (const int idx : order_) {
     const Segment3& s = segs_[idx];
     if (s.moments.n < p_.min_points) continue;  // too few points to judge: left out
-    std::vector<std::pair<double, int>> matches;
+    std::vector<std::pair<double, int>>& matches = matches_;
+    matches.clear();
     for (int ri : open_) {
       Region& r = regions_[ri];
       if (r.dead) continue;
@@ -874,12 +888,13 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     }
     others.push_back(x);
   }
-  // Segments come line by line: each line's first segment, found in this
-  // short list rather than among the segments.
-  std::vector<std::pair<int, int>> line_first;  // (line, its first segment), and (end, size) last
-  for (std::size_t i = 0; i < segs_.size(); ++i)
-    if (i == 0 || segs_[i].line != segs_[i - 1].line) line_first.emplace_back(segs_[i].line, static_cast<int>(i));
-  line_first.emplace_back(std::numeric_limits<int>::max(), static_cast<int>(segs_.size()));
+  // The lone segments that may seed a plane with a run of a neighbour's.
+  std::vector<char> lone(segs_.size(), 0);
+  for (std::size_t i = 0; i < segs_.size(); ++i) {
+    const int rt = seg_region_[i];
+    lone[i] = rt >= 0 && !regions_[rt].dead && regions_[rt].members.size() == 1 &&
+              segs_[i].moments.n >= 2 * p_.min_points;
+  }
   for (std::size_t si = 0; si < segs_.size(); ++si) {
     const int ri = seg_region_[si];
     if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 2) continue;
@@ -1009,13 +1024,11 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     // gentle a bend for the split). That plane is tried as the other one; a
     // run beside kMinLoneCover of the lone segment or more seeds it.
     for (int dl : {-1, 1}) {
-      const auto lf = std::lower_bound(line_first.begin(), line_first.end() - 1, std::make_pair(s.line + dl, 0));
-      if (lf == line_first.end() - 1 || lf->first != s.line + dl) continue;
-      for (auto it = segs_.begin() + lf->second; it != segs_.begin() + (lf + 1)->second; ++it) {
-        const Segment3& t = *it;
-        const int rt = seg_region_[it - segs_.begin()];
-        if (rt < 0 || regions_[rt].dead || regions_[rt].members.size() != 1 || t.moments.n < 2 * p_.min_points)
-          continue;
+      const int t_end = firstSegmentOf(s.line + dl + 1);
+      for (int ti = firstSegmentOf(s.line + dl); ti < t_end; ++ti) {
+        if (!lone[ti]) continue;
+        const Segment3& t = segs_[ti];
+        const int rt = seg_region_[ti];
         // On this segment's plane it would span that plane again.
         if (std::abs(own.fit.normal.dot(t.moments.mean()) - own.fit.offset) <=
             std::max(p_.centroid_min, p_.centroid_ratio * t.range))
@@ -1082,6 +1095,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   }
   segs_ = std::move(out);
   seg_region_ = std::move(region);
+  indexLines();
   for (Region& r : regions_) r.members.clear();
   for (std::size_t si = 0; si < segs_.size(); ++si)
     if (seg_region_[si] >= 0) regions_[seg_region_[si]].members.push_back(static_cast<int>(si));

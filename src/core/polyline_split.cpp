@@ -8,64 +8,82 @@
 namespace tilt_laser_perception {
 namespace core {
 
+namespace {
+/// splitPolyline's buffers, kept between calls (an organized cloud splits
+/// hundreds of lines): the points relative to the origin, one array a
+/// coordinate, so that a run's search runs four floats an instruction.
+struct SplitWork {
+  Eigen::ArrayXf x, y, z, c;
+  std::vector<float> r;  // ranges; NaN: no return
+  std::vector<std::pair<int, int>> stack, pieces;
+};
+}  // namespace
+
 void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3d& origin, const SplitParams& p,
                    int line, std::vector<Segment3>& out) {
+  thread_local SplitWork w;
   const int n = static_cast<int>(pts.size());
-  std::vector<double> r(n, 0.0);
-  std::vector<char> ok(n, 0);
-  std::vector<Eigen::Vector3d> pd(n);
+  w.x.resize(n);
+  w.y.resize(n);
+  w.z.resize(n);
+  w.c.resize(n);
+  w.r.resize(n);
+  const Eigen::Vector3f o = origin.cast<float>();
   for (int i = 0; i < n; ++i) {
-    ok[i] = std::isfinite(pts[i].x()) && std::isfinite(pts[i].y()) && std::isfinite(pts[i].z());
-    pd[i] = pts[i].cast<double>();
-    if (!ok[i]) pd[i].setConstant(std::numeric_limits<double>::quiet_NaN());
-    if (ok[i]) r[i] = (pd[i] - origin).norm();
+    const Eigen::Vector3f d = pts[i] - o;
+    w.x[i] = d.x();
+    w.y[i] = d.y();
+    w.z[i] = d.z();
+    w.r[i] = d.allFinite() ? d.norm() : std::numeric_limits<float>::quiet_NaN();
   }
-  const auto P = [&](int i) { return pd[i]; };
   const auto emit = [&](int a, int b) {
     Segment3 s;
-    if (b - a + 1 >= p.min_points && makeSegment3(pd, r, line, a, b, s)) {
+    if (b - a + 1 >= p.min_points && makeSegment3(pts, w.r, line, a, b, s)) {
       s.origin = origin;
       out.push_back(s);
     }
   };
-  std::vector<std::pair<int, int>> stack;
   int start = -1;
   for (int i = 0; i <= n; ++i) {
-    const bool good = i < n && ok[i];
+    const bool good = i < n && std::isfinite(w.r[i]);
     bool ends = start >= 0 && !good;
-    if (start >= 0 && good && std::abs(r[i] - r[i - 1]) > p.jumpThreshold(std::min(r[i], r[i - 1]))) ends = true;
+    if (start >= 0 && good && std::abs(w.r[i] - w.r[i - 1]) > p.jumpThreshold(std::min(w.r[i], w.r[i - 1])))
+      ends = true;
     if (ends) {
       // Farthest-point split of the run [start, i - 1].
-      stack.assign(1, {start, i - 1});
-      std::vector<std::pair<int, int>> pieces;
-      while (!stack.empty()) {
-        const auto [a, b] = stack.back();
-        stack.pop_back();
+      w.stack.assign(1, {start, i - 1});
+      w.pieces.clear();
+      while (!w.stack.empty()) {
+        const auto [a, b] = w.stack.back();
+        w.stack.pop_back();
         int k = -1;
         double dmax = 0.0;
         if (b - a >= 2) {
-          // Farthest point from the chord: the largest squared |cross product|,
-          // one root and one division at the end.
-          const Eigen::Vector3d pa = P(a), ab = P(b) - pa;
-          const double len = ab.norm();
-          double cmax = 0.0;
-          for (int j = a + 1; j < b; ++j) {
-            const double c = len > 0 ? ab.cross(P(j) - pa).squaredNorm() : (P(j) - pa).squaredNorm();
-            if (c > cmax) {
-              cmax = c;
-              k = j;
-            }
-          }
-          dmax = len > 0 ? std::sqrt(cmax) / len : std::sqrt(cmax);
+          // Farthest point from the chord: the largest squared |cross
+          // product| over the run's inner points, one root and one division
+          // at the end.
+          const int m = b - a - 1;
+          const float ax = w.x[a], ay = w.y[a], az = w.z[a];
+          const float ux = w.x[b] - ax, uy = w.y[b] - ay, uz = w.z[b] - az;
+          const float len = std::sqrt(ux * ux + uy * uy + uz * uz);
+          const auto px = w.x.segment(a + 1, m) - ax, py = w.y.segment(a + 1, m) - ay, pz = w.z.segment(a + 1, m) - az;
+          auto c = w.c.head(m);
+          if (len > 0.0f)
+            c = (uy * pz - uz * py).square() + (uz * px - ux * pz).square() + (ux * py - uy * px).square();
+          else
+            c = px.square() + py.square() + pz.square();
+          const float cmax = c.maxCoeff();
+          k = a + 1 + static_cast<int>(std::find(c.data(), c.data() + m, cmax) - c.data());
+          dmax = len > 0.0f ? std::sqrt(static_cast<double>(cmax)) / len : std::sqrt(static_cast<double>(cmax));
         }
-        if (k >= 0 && dmax > p.threshold(r[k])) {
-          stack.emplace_back(k + 1, b);
-          stack.emplace_back(a, k);
+        if (k >= 0 && dmax > p.threshold(w.r[k])) {
+          w.stack.emplace_back(k + 1, b);
+          w.stack.emplace_back(a, k);
         } else {
-          pieces.emplace_back(a, b);
+          w.pieces.emplace_back(a, b);
         }
       }
-      for (const auto& [a, b] : pieces) emit(a, b);
+      for (const auto& [a, b] : w.pieces) emit(a, b);
       start = -1;
     }
     if (good && start < 0) start = i;

@@ -156,6 +156,10 @@ class ScanLineGrouper {
   /// The members of r on lines [line_lo, line_hi].
   std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> membersIn(const Region& r, int line_lo,
                                                                                          int line_hi) const;
+  /// The index of the first segment on `line` or after it.
+  int firstSegmentOf(int line) const;
+  /// line_start_ again from segs_ (after segments were cut).
+  void indexLines();
   bool planesAgree(const Region& a, const Region& b) const;
   void absorb(int into, int from);
   void addMember(int region, int segment);     // keeps members sorted, refits
@@ -181,11 +185,13 @@ class ScanLineGrouper {
   GroupingParams p_;
   Eigen::Vector3d sensor_ = Eigen::Vector3d::Zero();
   std::vector<Segment3> segs_;
+  std::vector<int> line_start_;  // per line: the index of its first segment (or of the next line's)
   std::vector<int> seg_region_;
   std::vector<Region> regions_;
   std::vector<int> open_;  // regions still growing
   std::vector<int> seg_plane_;
   std::vector<int> order_;  // addLine's matching order
+  std::vector<std::pair<double, int>> matches_;  // addLine's regions that a segment fits (score, region)
 };
 
 }  // namespace core
