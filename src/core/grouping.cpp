@@ -875,25 +875,31 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   // The planes that could take a piece, with the lines and beams they reach.
   struct Other {
     int region, line_lo, line_hi, beam_lo, beam_hi;
+    std::size_t order;  // tried in this order (the candidates')
   };
   std::vector<Other> others;
   for (const int rj : cand) {
     const Region& o = regions_[rj];
     if (o.dead || o.lines < 2) continue;
     Other x{rj, o.first_line - p_.max_line_gap, o.last_line + p_.max_line_gap, segs_[o.members[0]].first,
-            segs_[o.members[0]].last};
+            segs_[o.members[0]].last, others.size()};
     for (const int m : o.members) {
       x.beam_lo = std::min(x.beam_lo, segs_[m].first - p_.beam_slack);
       x.beam_hi = std::max(x.beam_hi, segs_[m].last + p_.beam_slack);
     }
     others.push_back(x);
   }
-  // The lone segments that may seed a plane with a run of a neighbour's.
-  std::vector<char> lone(segs_.size(), 0);
+  // Others by their first line: as the segments go line by line, those
+  // whose lines reach the segment's are kept in `active`.
+  std::sort(others.begin(), others.end(), [](const Other& a, const Other& b) { return a.line_lo < b.line_lo; });
+  std::vector<Other> active;
+  std::size_t next_other = 0;
+  // The lone segments that may seed a plane with a run of a neighbour's (in index order, so by line).
+  std::vector<int> lone;
   for (std::size_t i = 0; i < segs_.size(); ++i) {
     const int rt = seg_region_[i];
-    lone[i] = rt >= 0 && !regions_[rt].dead && regions_[rt].members.size() == 1 &&
-              segs_[i].moments.n >= 2 * p_.min_points;
+    if (rt >= 0 && !regions_[rt].dead && regions_[rt].members.size() == 1 && segs_[i].moments.n >= 2 * p_.min_points)
+      lone.push_back(static_cast<int>(i));
   }
   for (std::size_t si = 0; si < segs_.size(); ++si) {
     const int ri = seg_region_[si];
@@ -990,10 +996,15 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       }
       return true;
     };
+    if (next_other < others.size() && others[next_other].line_lo <= s.line) {
+      while (next_other < others.size() && others[next_other].line_lo <= s.line) active.push_back(others[next_other++]);
+      std::sort(active.begin(), active.end(), [](const Other& a, const Other& b) { return a.order < b.order; });
+    }
+    active.erase(std::remove_if(active.begin(), active.end(), [&](const Other& x) { return x.line_hi < s.line; }),
+                 active.end());
     bool have_points = true;
-    for (const Other& x : others) {
-      if (x.region == ri || s.line < x.line_lo || s.line > x.line_hi || s.last < x.beam_lo || s.first > x.beam_hi)
-        continue;
+    for (const Other& x : active) {
+      if (x.region == ri || s.last < x.beam_lo || s.first > x.beam_hi) continue;
       const int rj = x.region;
       const Region& o = regions_[rj];
       // A straight segment whose both ends lie on one side of that plane,
@@ -1025,8 +1036,9 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     // run beside kMinLoneCover of the lone segment or more seeds it.
     for (int dl : {-1, 1}) {
       const int t_end = firstSegmentOf(s.line + dl + 1);
-      for (int ti = firstSegmentOf(s.line + dl); ti < t_end; ++ti) {
-        if (!lone[ti]) continue;
+      for (auto it = std::lower_bound(lone.begin(), lone.end(), firstSegmentOf(s.line + dl));
+           it != lone.end() && *it < t_end; ++it) {
+        const int ti = *it;
         const Segment3& t = segs_[ti];
         const int rt = seg_region_[ti];
         // On this segment's plane it would span that plane again.
