@@ -133,16 +133,23 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         const float dz = static_cast<float>(-n.x() * p.resolution * inv_nz);
         const float z0 = static_cast<float>((pl.fit.offset - n.x() * (p.origin_x + (ix0 + 0.5) * p.resolution) - n.y() * y) * inv_nz);
         const std::size_t c0 = out.index(ix0, iy);
-        float* h = out.heights.data() + c0;
         const int count = ix1 - ix0 + 1;
         if (count > 0) inBox(ix0, ix1, iy);
+        float* __restrict h = out.heights.data() + c0;
+        std::int32_t* __restrict id = out.plane_ids.data() + c0;
+        CellClass* __restrict cls = out.classes.data() + c0;
+        // Without branches (masks), so that the compiler runs it a vector at a time.
         for (int k = 0; k < count; ++k) {
-          const float z = z0 + k * dz;
-          if (h[k] >= z) continue;  // seen from above: the higher surface (NaN: none yet)
-          h[k] = z;
-          out.plane_ids[c0 + k] = pl.id;
+          const float z = z0 + static_cast<float>(k) * dz;
+          const float old = h[k];
+          // All ones where z is higher: seen from above, the higher surface wins (NaN: none yet).
+          const std::int32_t higher = -static_cast<std::int32_t>(!(old >= z));
           // NaN while the floor is unknown: a step
-          out.classes[c0 + k] = std::abs(z - floor_h) <= floor_tol ? CellClass::Floor : CellClass::Step;
+          const std::int32_t c = static_cast<std::int32_t>(CellClass::Step) -
+                                 static_cast<std::int32_t>(std::abs(z - floor_h) <= floor_tol);
+          h[k] = old >= z ? old : z;
+          id[k] = (pl.id & higher) | (id[k] & ~higher);
+          cls[k] = static_cast<CellClass>((c & higher) | (static_cast<std::int32_t>(cls[k]) & ~higher));
         }
       }
     }
