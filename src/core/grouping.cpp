@@ -183,16 +183,20 @@ int ScanLineGrouper::firstSegmentOf(int line) const {
   return line < static_cast<int>(line_start_.size()) ? line_start_[line] : static_cast<int>(segs_.size());
 }
 
-void ScanLineGrouper::indexLines() {
+void ScanLineGrouper::indexSegments() {
   line_start_.clear();
-  for (std::size_t i = 0; i < segs_.size(); ++i)
+  spans_.clear();
+  for (std::size_t i = 0; i < segs_.size(); ++i) {
     while (static_cast<int>(line_start_.size()) <= segs_[i].line) line_start_.push_back(static_cast<int>(i));
+    spans_.push_back({segs_[i].line, segs_[i].first, segs_[i].last});
+  }
 }
 
 void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
   sensor_ = sensor;
   segs_.clear();
   line_start_.clear();
+  spans_.clear();
   seg_region_.clear();
   regions_.clear();
   open_.clear();
@@ -341,7 +345,7 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
     bool overlap = false;
     const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
     for (auto mi = m0; mi != m1 && !overlap; ++mi)
-      overlap = segs_[*mi].first <= s.last + p_.beam_slack && s.first <= segs_[*mi].last + p_.beam_slack;
+      overlap = spans_[*mi].first <= s.last + p_.beam_slack && s.first <= spans_[*mi].last + p_.beam_slack;
     double score = 0.0;
     Segment3 probe = s;
     probe.line = std::min(s.line, o.last_line + 1);  // fits() looks at the lines before the segment's
@@ -474,9 +478,9 @@ void ScanLineGrouper::pairBrokenLines() {
 }
 
 bool ScanLineGrouper::lineShared(const std::vector<int>& members, std::ptrdiff_t k) const {
-  const int line = segs_[members[k]].line;
-  return (k > 0 && segs_[members[k - 1]].line == line) ||
-         (k + 1 < static_cast<std::ptrdiff_t>(members.size()) && segs_[members[k + 1]].line == line);
+  const int line = spans_[members[k]].line;
+  return (k > 0 && spans_[members[k - 1]].line == line) ||
+         (k + 1 < static_cast<std::ptrdiff_t>(members.size()) && spans_[members[k + 1]].line == line);
 }
 
 void ScanLineGrouper::removeMember(int region, int si) {
@@ -519,12 +523,12 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     const auto at = own.members.begin() + k;
     bool before = false, after = false;
     for (auto mi = at; mi != own.members.begin() && !before;) {
-      const Segment3& m = segs_[*--mi];
+      const Span& m = spans_[*--mi];
       if (m.line < s.line - 1) break;
       before = m.line == s.line - 1 && m.first <= s.last && s.first <= m.last;
     }
     for (auto mi = at + 1; mi < own.members.end() && !after; ++mi) {
-      const Segment3& m = segs_[*mi];
+      const Span& m = spans_[*mi];
       if (m.line > s.line + 1) break;
       after = m.line == s.line + 1 && m.first <= s.last && s.first <= m.last;
     }
@@ -599,7 +603,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
       if (!(best >= 0 ? d < best_d : side > 0 || d < d_own || tie)) continue;
       bool overlap = false;
       const auto [m0, m1] = membersIn(o, s.line - 1, s.line + 1);
-      for (auto mi = m0; mi != m1 && !overlap; ++mi) overlap = segs_[*mi].first <= s.last && s.first <= segs_[*mi].last;
+      for (auto mi = m0; mi != m1 && !overlap; ++mi) overlap = spans_[*mi].first <= s.last && s.first <= spans_[*mi].last;
       if (overlap) {
         best = rj;
         best_d = d;
@@ -626,7 +630,7 @@ void ScanLineGrouper::absorb(int into, int from) {
   std::sort(a.members.begin(), a.members.end());  // segment indices grow with the line
   a.first_line = std::min(a.first_line, b.first_line);
   a.last_line = std::max(a.last_line, b.last_line);
-  a.lines = countLines(a.members, segs_);
+  a.lines = countLines(a.members, spans_);
   a.fit = fitPlane(a.moments);
   if (a.across.isZero()) a.across = b.across;
   b.dead = true;
@@ -642,6 +646,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
   const int first_idx = static_cast<int>(segs_.size());
   while (static_cast<int>(line_start_.size()) <= l) line_start_.push_back(first_idx);
   segs_.insert(segs_.end(), line.begin(), line.end());
+  for (const Segment3& s : line) spans_.push_back({s.line, s.first, s.last});
   seg_region_.resize(segs_.size(), -1);
   order_.resize(line.size());
   for (std::size_t k = 0; k < line.size(); ++k) order_[k] = first_idx + static_cast<int>(k);
@@ -657,7 +662,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
       // Overlap in beam index with a member of the previous lines.
       bool overlap = false;
       for (auto it = r.members.rbegin(); it != r.members.rend() && !overlap; ++it) {
-        const Segment3& m = segs_[*it];
+        const Span& m = spans_[*it];
         if (m.line >= l) continue;
         if (m.line < l - p_.max_line_gap) break;
         overlap = m.first <= s.last + p_.beam_slack && s.first <= m.last + p_.beam_slack;
@@ -884,8 +889,8 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     Other x{rj, o.first_line - p_.max_line_gap, o.last_line + p_.max_line_gap, segs_[o.members[0]].first,
             segs_[o.members[0]].last, others.size()};
     for (const int m : o.members) {
-      x.beam_lo = std::min(x.beam_lo, segs_[m].first - p_.beam_slack);
-      x.beam_hi = std::max(x.beam_hi, segs_[m].last + p_.beam_slack);
+      x.beam_lo = std::min(x.beam_lo, spans_[m].first - p_.beam_slack);
+      x.beam_hi = std::max(x.beam_hi, spans_[m].last + p_.beam_slack);
     }
     others.push_back(x);
   }
@@ -941,9 +946,9 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       Eigen::Vector3d near_sum = Eigen::Vector3d::Zero();
       const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
       for (auto mi = a0; mi != a1; ++mi) {
-        const Segment3& m = segs_[*mi];
-        const int b0 = std::max(m.first, lo), b1 = std::min(m.last, hi);
+        const int b0 = std::max(spans_[*mi].first, lo), b1 = std::min(spans_[*mi].last, hi);
         if (*mi == static_cast<int>(si) || b1 < b0) continue;
+        const Segment3& m = segs_[*mi];
         const double span = std::max(1, m.last - m.first);
         const double n = m.moments.n * (b1 - b0 + 1) / (m.last - m.first + 1);
         near_n += n;
@@ -1016,7 +1021,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       int lo = s.last + 1, hi = s.first - 1;
       const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
       for (auto mi = m0; mi != m1; ++mi) {
-        const Segment3& m = segs_[*mi];
+        const Span& m = spans_[*mi];
         if (m.first > s.last + p_.beam_slack || s.first > m.last + p_.beam_slack) continue;
         lo = std::min(lo, m.first);
         hi = std::max(hi, m.last);
@@ -1107,7 +1112,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   }
   segs_ = std::move(out);
   seg_region_ = std::move(region);
-  indexLines();
+  indexSegments();
   for (Region& r : regions_) r.members.clear();
   for (std::size_t si = 0; si < segs_.size(); ++si)
     if (seg_region_[si] >= 0) regions_[seg_region_[si]].members.push_back(static_cast<int>(si));
@@ -1123,7 +1128,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     r.fit = fitPlane(r.moments);
     r.first_line = segs_[r.members.front()].line;
     r.last_line = segs_[r.members.back()].line;
-    r.lines = countLines(r.members, segs_);
+    r.lines = countLines(r.members, spans_);
   }
 }
 

@@ -158,8 +158,8 @@ class ScanLineGrouper {
                                                                                          int line_hi) const;
   /// The index of the first segment on `line` or after it.
   int firstSegmentOf(int line) const;
-  /// line_start_ again from segs_ (after segments were cut).
-  void indexLines();
+  /// line_start_ and spans_ again from segs_ (after segments were cut).
+  void indexSegments();
   bool planesAgree(const Region& a, const Region& b) const;
   void absorb(int into, int from);
   void addMember(int region, int segment);     // keeps members sorted, refits
@@ -186,6 +186,12 @@ class ScanLineGrouper {
   Eigen::Vector3d sensor_ = Eigen::Vector3d::Zero();
   std::vector<Segment3> segs_;
   std::vector<int> line_start_;  // per line: the index of its first segment (or of the next line's)
+  /// Each segment's line and beams, apart from the rest: the loops that walk
+  /// a plane's members by line read 12 bytes a segment, not its 200.
+  struct Span {
+    int line, first, last;
+  };
+  std::vector<Span> spans_;
   std::vector<int> seg_region_;
   std::vector<Region> regions_;
   std::vector<int> open_;  // regions still growing
