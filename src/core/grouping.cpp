@@ -1155,7 +1155,7 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
   const std::vector<int>& mem = r.members;
   const auto lineEnd = [&](std::size_t k) {
     std::size_t e = k + 1;
-    while (e < mem.size() && segs_[mem[e]].line == segs_[mem[k]].line) ++e;
+    while (e < mem.size() && spans_[mem[e]].line == spans_[mem[k]].line) ++e;
     return e;
   };
   // Outer boundary: where each line enters the plane, then back along where it leaves.
