@@ -19,7 +19,7 @@ add_library(tlp_core
   ${TLP_ROOT}/src/core/input_check.cpp
   ${TLP_ROOT}/src/core/calibration.cpp)
 # `#pragma omp simd` loops (no OpenMP runtime): the per-beam transforms.
-target_compile_options(tlp_core PRIVATE -fopenmp-simd -O3)
+target_compile_options(tlp_core PRIVATE -fopenmp-simd)
 
 # ---- ROS-free SCIP 2.0 codec and Dynamixel protocol library ----------------
 add_library(tlp_scip ${TLP_ROOT}/src/scip/codec.cpp ${TLP_ROOT}/src/scip/time_sync.cpp ${TLP_ROOT}/src/scip/transport.cpp ${TLP_ROOT}/src/scip/client.cpp)
