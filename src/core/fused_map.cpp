@@ -232,7 +232,8 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
   // sweep is taken back so. Mixed pixels say nothing.
   const float tolerance = static_cast<float>(g.obstacle_min_height), ox = static_cast<float>(g.origin_x),
               oy = static_cast<float>(g.origin_y), inv_r = static_cast<float>(inv_res);
-  // The points of walkable planes are in the cells their polygons filled: skipped.
+  // The points of walkable planes are in the cells their polygons filled, and
+  // those of segments beside the map in none: skipped.
   const double cos_max = std::cos(g.max_slope_deg * M_PI / 180.0);
   std::vector<char> walkable(sweep.planes.size(), 0);
   for (const Plane& pl : sweep.planes)
@@ -249,11 +250,13 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
               (sweep.segments[si].line == static_cast<int>(li) && sweep.segments[si].last < static_cast<int>(i))))
         ++si;
       if (si < sweep.segments.size() && sweep.segments[si].line == static_cast<int>(li) &&
-          sweep.segments[si].first <= static_cast<int>(i) && sweep.segment_plane[si] >= 0 &&
-          sweep.segment_plane[si] < static_cast<int>(walkable.size()) &&
-          walkable[sweep.segment_plane[si]]) {
-        i = sweep.segments[si].last;  // the rest of the segment
-        continue;
+          sweep.segments[si].first <= static_cast<int>(i)) {
+        const int pid = sweep.segment_plane[si];
+        if ((pid >= 0 && pid < static_cast<int>(walkable.size()) && walkable[pid]) ||
+            besideMap(sweep.segments[si], g)) {
+          i = sweep.segments[si].last;  // the rest of the segment
+          continue;
+        }
       }
       const Eigen::Vector3f& q = line.points[i];
       const float fx = (q.x() - ox) * inv_r, fy = (q.y() - oy) * inv_r;

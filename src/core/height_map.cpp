@@ -8,6 +8,13 @@
 namespace tilt_laser_perception {
 namespace core {
 
+bool besideMap(const Segment3& s, const HeightMapParams& p) {
+  const double x_lo = p.origin_x - 0.1, x_hi = p.origin_x + p.width * p.resolution + 0.1;
+  const double y_lo = p.origin_y - 0.1, y_hi = p.origin_y + p.height * p.resolution + 0.1;
+  return std::max(s.start.x(), s.end.x()) < x_lo || std::min(s.start.x(), s.end.x()) > x_hi ||
+         std::max(s.start.y(), s.end.y()) < y_lo || std::min(s.start.y(), s.end.y()) > y_hi;
+}
+
 void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMapGrid& out) {
   const std::size_t cells = static_cast<std::size_t>(p.width) * p.height;
   const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -207,12 +214,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       const int pid = sweep.segment_plane[si];
       for (int i = cursor; i < s.first; ++i) markLoose(i);
       if (pid < 0 || !(walkable[pid] || step_face[pid])) {
-        // A segment lies along the line between its ends (within the split's
-        // tolerance, centimetres): one wholly beside the map is skipped (the
-        // far walls, most of a sweep's points).
-        const bool beside = std::max(s.start.x(), s.end.x()) < x_lo || std::min(s.start.x(), s.end.x()) > x_hi ||
-                            std::max(s.start.y(), s.end.y()) < y_lo || std::min(s.start.y(), s.end.y()) > y_hi;
-        if (beside) {
+        if (besideMap(s, p)) {
           cursor = std::max(cursor, s.last + 1);
           continue;
         }

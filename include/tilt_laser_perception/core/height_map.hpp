@@ -43,6 +43,13 @@ struct HeightMapGrid {
   std::size_t index(int ix, int iy) const { return static_cast<std::size_t>(iy) * params.width + ix; }
 };
 
+/// Whether all of a segment's points lie beside a map's area (cells
+/// [0, width) x [0, height)): its ends both beyond one side by more than
+/// 0.1 m. Its points lie along the line between its ends within the split's
+/// tolerance (centimetres), so they are beside it too: the far walls and
+/// floor, most of a sweep's points, are not looked at one by one.
+bool besideMap(const Segment3& s, const HeightMapParams& params);
+
 /// Builds the height map of a sweep (planes and points in the map frame, z up).
 /// When `out` holds the map an earlier call made of the same size (unchanged
 /// since), only that map's box is cleared first, not the whole grid.
