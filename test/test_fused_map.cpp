@@ -133,6 +133,43 @@ TEST(FusedHeightMap, TheNewestSweepWinsWhereTheyDisagree) {
   EXPECT_EQ(m.planes().size(), 2u);      // the old one is kept until forgotten
 }
 
+TEST(FusedHeightMap, PointsUnderAKnownSurfaceTakeItBackAndSegmentsBesideTheMapAreSkipped) {
+  FusedHeightMap m(cells(), fusedParams());  // 4 m: x and y in [-2, 2)
+  m.recentre(0.0, 0.0);
+  SweepResult a;
+  a.planes = {rectangle(0, 0.5, -0.5, 1.5, 0.5, 0.0)};
+  m.addSweep(a, Eigen::Vector3d(0, 0, 1.4), 1.0, 0.0);
+  ASSERT_NEAR(m.grid().heights[cellAt(m.grid(), 1.02, 0.0)], 0.0, 1e-6);
+  // The next sweep sees the floor elsewhere, and a line whose first five
+  // points lie 30 cm under the old floor (its rays went through it), and
+  // five 1.5 m beyond the map.
+  SweepResult b;
+  b.planes = {rectangle(0, -1.5, -1.5, -0.5, -0.5, 0.0)};
+  SweepLine line;
+  for (int i = 0; i < 5; ++i) line.points.emplace_back(1.0f + 0.01f * i, 0.0f, -0.3f);
+  for (int i = 0; i < 5; ++i) line.points.emplace_back(3.5f + 0.01f * i, 0.0f, 0.0f);
+  b.lines.push_back(line);
+  const auto segment = [](int first, int last, const Eigen::Vector3d& start, const Eigen::Vector3d& end) {
+    Segment3 s;
+    s.first = first;
+    s.last = last;
+    s.start = start;
+    s.end = end;
+    return s;
+  };
+  b.segments = {segment(0, 4, {1.0, 0, -0.3}, {1.04, 0, -0.3}), segment(5, 9, {3.5, 0, 0}, {3.54, 0, 0})};
+  b.segment_plane = {-1, -1};
+  m.addSweep(b, Eigen::Vector3d(0, 0, 1.4), 2.0, 0.0);
+  EXPECT_TRUE(std::isnan(m.grid().heights[cellAt(m.grid(), 1.02, 0.0)]));  // taken back
+  EXPECT_NEAR(m.grid().heights[cellAt(m.grid(), 1.2, 0.0)], 0.0, 1e-6);     // no point there: kept
+  const HeightMapParams& g = m.grid().params;
+  EXPECT_FALSE(besideMap(b.segments[0], g));
+  EXPECT_TRUE(besideMap(b.segments[1], g));
+  EXPECT_TRUE(besideMap(segment(0, 9, {-1.5, -2.5, 0}, {1.5, -2.2, 0}), g));  // beyond y's low side
+  EXPECT_FALSE(besideMap(segment(0, 9, {-1.5, -2.05, 0}, {1.5, -2.2, 0}), g));  // within its margin
+  EXPECT_FALSE(besideMap(segment(0, 9, {-3.0, 1.5, 0}, {1.5, -3.0, 0}), g));   // crosses it corner to corner
+}
+
 TEST(FusedHeightMap, UncertaintyGrowsWithTheDistanceWalkedAndOldCellsAreForgotten) {
   FusedMapParams f = fusedParams();
   FusedHeightMap m(cells(), f);
