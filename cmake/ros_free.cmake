@@ -20,6 +20,9 @@ add_library(tlp_core
   ${TLP_ROOT}/src/core/calibration.cpp)
 # `#pragma omp simd` loops (no OpenMP runtime): the per-beam transforms.
 target_compile_options(tlp_core PRIVATE -fopenmp-simd)
+# The split of organized clouds' rows: -O3 unrolls its per-point loops
+# (compare_pcl --organized 500: the split alone 7.0 -> 6.0 ms).
+set_source_files_properties(${TLP_ROOT}/src/core/polyline_split.cpp PROPERTIES COMPILE_OPTIONS -O3)
 
 # ---- ROS-free SCIP 2.0 codec and Dynamixel protocol library ----------------
 add_library(tlp_scip ${TLP_ROOT}/src/scip/codec.cpp ${TLP_ROOT}/src/scip/time_sync.cpp ${TLP_ROOT}/src/scip/transport.cpp ${TLP_ROOT}/src/scip/client.cpp)
