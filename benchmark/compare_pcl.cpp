@@ -8,7 +8,8 @@
 // Times segment_cloud's split and grouping (core::segmentOrganized) and PCL's
 // normals and segmentation on one N x N organized cloud of the scene (a range
 // image from the head, rows of equal elevation), the median of 7 runs each,
-// and prints their ratio.
+// and prints their ratio, and the split, the adding of rows and the finish
+// timed apart.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -123,7 +124,7 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
   }
   const auto now = [] { return std::chrono::steady_clock::now(); };
   const auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
-  std::vector<double> ours_s, pcl_s, split_s;
+  std::vector<double> ours_s, pcl_s, split_s, add_s, finish_s;
   std::size_t our_planes = 0, pcl_planes = 0, our_pts = 0, pcl_pts = 0;
   for (int run = 0; run < 7; ++run) {
     std::vector<tlp::core::Plane> planes;
@@ -142,25 +143,38 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
     pcl_planes = inliers.size();
     pcl_pts = 0;
     for (const auto& in : inliers) pcl_pts += in.indices.size();
-    // The split alone, row by row, as segmentOrganized splits.
+    // Its stages timed apart, row by row as segmentOrganized runs them: the
+    // split, the grouping as the rows come (addLine), and its finish.
+    tlp::core::ScanLineGrouper g{tlp::core::GroupingParams()};
+    g.reset(head);
+    std::vector<std::vector<Eigen::Vector3f>> rows(static_cast<std::size_t>(n));
     std::vector<tlp::core::Segment3> segs;
-    std::vector<Eigen::Vector3f> row(static_cast<std::size_t>(n));
-    const auto t2 = now();
+    double split = 0.0, add = 0.0;
     for (int r = 0; r < n; ++r) {
-      std::copy(pts.begin() + static_cast<std::ptrdiff_t>(r) * n, pts.begin() + static_cast<std::ptrdiff_t>(r + 1) * n,
-                row.begin());
+      rows[r].assign(pts.begin() + static_cast<std::ptrdiff_t>(r) * n, pts.begin() + static_cast<std::ptrdiff_t>(r + 1) * n);
       segs.clear();
-      tlp::core::splitPolyline(row, head, tlp::core::SplitParams(), r, segs);
+      const auto t2 = now();
+      tlp::core::splitPolyline(rows[r], head, tlp::core::SplitParams(), r, segs);
+      const auto t3 = now();
+      g.addLine(segs);
+      split += secs(t2, t3);
+      add += secs(t3, now());
     }
-    split_s.push_back(secs(t2, now()));
+    std::vector<tlp::core::Plane> staged;
+    const auto t4 = now();
+    g.finish(staged, [&](int line) { return &rows[line]; });
+    finish_s.push_back(secs(t4, now()));
+    split_s.push_back(split);
+    add_s.push_back(add);
   }
   std::size_t valid = 0;
   for (const auto& p : pts) valid += p.allFinite();
   const double ours = medianMs(ours_s), theirs = medianMs(pcl_s);
   std::printf("scene %s, a %d x %d range image from the head (%zu returns), medians of 7 runs\n", scene_name.c_str(), n,
               n, valid);
-  std::printf("segment_cloud (split + grouping): %.2f ms, %zu planes, %zu points in planes (the split alone %.2f ms)\n",
-              ours, our_planes, our_pts, medianMs(split_s));
+  std::printf("segment_cloud (split + grouping): %.2f ms, %zu planes, %zu points in planes (timed apart: the split "
+              "%.2f ms, adding the rows %.2f ms, finish %.2f ms)\n",
+              ours, our_planes, our_pts, medianMs(split_s), medianMs(add_s), medianMs(finish_s));
   std::printf("PCL (integral-image normals + OrganizedMultiPlaneSegmentation): %.2f ms, %zu planes, %zu points in planes\n",
               theirs, pcl_planes, pcl_pts);
   std::printf("ratio=%.3f (1/%.1f)\n", ours / theirs, theirs / ours);
