@@ -325,9 +325,9 @@ int ScanLineGrouper::newRegion(int si) {
     const Eigen::Vector3d n = (s.start - s.origin).cross(s.end - s.origin);
     if (n.norm() > 1e-9) r.across = n.normalized();
   }
-  r.moments = segs_[si].moments;
+  r.moments = s.moments;
   r.members = {si};
-  r.first_line = r.last_line = segs_[si].line;
+  r.first_line = r.last_line = s.line;
   r.lines = 1;
   r.fit = fitPlane(r.moments);
   seg_region_[si] = static_cast<int>(regions_.size());

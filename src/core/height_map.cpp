@@ -8,9 +8,14 @@
 namespace tilt_laser_perception {
 namespace core {
 
+namespace {
+/// Points and segments this far beside the map's area are not looked at [m].
+constexpr double kMapMargin = 0.1;
+}  // namespace
+
 bool besideMap(const Segment3& s, const HeightMapParams& p) {
-  const double x_lo = p.origin_x - 0.1, x_hi = p.origin_x + p.width * p.resolution + 0.1;
-  const double y_lo = p.origin_y - 0.1, y_hi = p.origin_y + p.height * p.resolution + 0.1;
+  const double x_lo = p.origin_x - kMapMargin, x_hi = p.origin_x + p.width * p.resolution + kMapMargin;
+  const double y_lo = p.origin_y - kMapMargin, y_hi = p.origin_y + p.height * p.resolution + kMapMargin;
   return std::max(s.start.x(), s.end.x()) < x_lo || std::min(s.start.x(), s.end.x()) > x_hi ||
          std::max(s.start.y(), s.end.y()) < y_lo || std::min(s.start.y(), s.end.y()) > y_hi;
 }
@@ -166,8 +171,10 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   // Obstacles: points outside walkable planes that stand above the cell's
   // surface. Segments come in line and beam order: only the beams between
   // the walkable planes' segments are looked at.
-  const float x_lo = static_cast<float>(p.origin_x - 0.1), x_hi = static_cast<float>(p.origin_x + p.width * p.resolution + 0.1);
-  const float y_lo = static_cast<float>(p.origin_y - 0.1), y_hi = static_cast<float>(p.origin_y + p.height * p.resolution + 0.1);
+  const float x_lo = static_cast<float>(p.origin_x - kMapMargin),
+              x_hi = static_cast<float>(p.origin_x + p.width * p.resolution + kMapMargin);
+  const float y_lo = static_cast<float>(p.origin_y - kMapMargin),
+              y_hi = static_cast<float>(p.origin_y + p.height * p.resolution + kMapMargin);
   const double inv_res = 1.0 / p.resolution;
   // Most points are outside the map (walls, the far floor) or no return at
   // all (NaN fails these tests too): tested inline before mark() is called.
