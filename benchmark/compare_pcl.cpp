@@ -8,13 +8,15 @@
 // Times segment_cloud's split and grouping (core::segmentOrganized) and PCL's
 // normals and segmentation on one N x N organized cloud of the scene (a range
 // image from the head, rows of equal elevation), the median of 7 runs each,
-// and prints their ratio, and the split, the adding of rows and the finish
-// timed apart.
+// and prints their ratio, the stages timed apart, and both methods' Hoover
+// figures against the image's faces. segment_cloud groups rows no closer
+// than --line-spacing-deg (its default; 0: every row).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,7 @@
 #include <pcl/segmentation/organized_multi_plane_segmentation.h>
 
 #include "tilt_laser_perception/core/polyline_split.hpp"
+#include "tilt_laser_perception/sim/evaluation.hpp"
 #include "tilt_laser_perception/sim/head.hpp"
 #include "tilt_laser_perception/sim/lidar_sim.hpp"
 #include "tilt_laser_perception/sim/scene.hpp"
@@ -109,11 +112,12 @@ double medianMs(std::vector<double> v) {
   return v.empty() ? 0.0 : 1e3 * v[v.size() / 2];
 }
 
-int organized(const std::string& scene_name, int n, std::uint64_t seed, const PclSettings& ps) {
+int organized(const std::string& scene_name, int n, std::uint64_t seed, const PclSettings& ps, double spacing_deg) {
   const tlp::sim::Scene scene = tlp::sim::loadScene(scene_name);
   const Eigen::Vector3d head = tlp::sim::HeadGeometry::load(tlp::sim::configDirectory() + "/head.yaml").axis_origin;
   // 1 cm range noise: the UTM-30LX's within 10 m.
-  const std::vector<Eigen::Vector3f> pts = tlp::sim::rangeImage(scene, head, n, 0.01, seed);
+  std::vector<int> faces;
+  const std::vector<Eigen::Vector3f> pts = tlp::sim::rangeImage(scene, head, n, 0.01, seed, &faces);
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   cloud->width = cloud->height = static_cast<std::uint32_t>(n);
   cloud->is_dense = false;
@@ -124,59 +128,58 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
   }
   const auto now = [] { return std::chrono::steady_clock::now(); };
   const auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
-  std::vector<double> ours_s, pcl_s, split_s, add_s, finish_s;
-  std::size_t our_planes = 0, pcl_planes = 0, our_pts = 0, pcl_pts = 0;
+  std::vector<double> ours_s, pcl_s, split_s, add_s, finish_s, between_s;
+  std::vector<std::uint32_t> labels, pcl_labels(pts.size(), 0);
+  std::size_t our_planes = 0, pcl_planes = 0;
+  int step = 1;
   for (int run = 0; run < 7; ++run) {
     std::vector<tlp::core::Plane> planes;
-    std::vector<std::uint32_t> labels;
+    tlp::core::OrganizedTimes times;
+    // As segment_cloud runs it: the lines grouped chosen from the cloud, then the split and grouping.
     const auto t0 = now();
+    step = tlp::core::organizedLineStep(pts, n, n, true, head, spacing_deg * M_PI / 180.0);
     tlp::core::segmentOrganized(pts, n, n, true, head, tlp::core::SplitParams(), tlp::core::GroupingParams(), planes,
-                                labels);
+                                labels, step, &times);
     ours_s.push_back(secs(t0, now()));
+    split_s.push_back(times.split);
+    add_s.push_back(times.add);
+    finish_s.push_back(times.finish);
+    between_s.push_back(times.between);
     our_planes = planes.size();
-    our_pts = static_cast<std::size_t>(std::count_if(labels.begin(), labels.end(), [](std::uint32_t l) { return l; }));
     std::vector<pcl::ModelCoefficients> coefficients;
     std::vector<pcl::PointIndices> inliers;
     const auto t1 = now();
     pclPlanes(ps, cloud, coefficients, inliers);
     pcl_s.push_back(secs(t1, now()));
     pcl_planes = inliers.size();
-    pcl_pts = 0;
-    for (const auto& in : inliers) pcl_pts += in.indices.size();
-    // Its stages timed apart, row by row as segmentOrganized runs them: the
-    // split, the grouping as the rows come (addLine), and its finish.
-    tlp::core::ScanLineGrouper g{tlp::core::GroupingParams()};
-    g.reset(head);
-    std::vector<std::vector<Eigen::Vector3f>> rows(static_cast<std::size_t>(n));
-    std::vector<tlp::core::Segment3> segs;
-    double split = 0.0, add = 0.0;
-    for (int r = 0; r < n; ++r) {
-      rows[r].assign(pts.begin() + static_cast<std::ptrdiff_t>(r) * n, pts.begin() + static_cast<std::ptrdiff_t>(r + 1) * n);
-      segs.clear();
-      const auto t2 = now();
-      tlp::core::splitPolyline(rows[r], head, tlp::core::SplitParams(), r, segs);
-      const auto t3 = now();
-      g.addLine(segs);
-      split += secs(t2, t3);
-      add += secs(t3, now());
-    }
-    std::vector<tlp::core::Plane> staged;
-    const auto t4 = now();
-    g.finish(staged, [&](int line) { return &rows[line]; });
-    finish_s.push_back(secs(t4, now()));
-    split_s.push_back(split);
-    add_s.push_back(add);
+    std::fill(pcl_labels.begin(), pcl_labels.end(), 0);
+    for (std::size_t k = 0; k < inliers.size(); ++k)
+      for (int idx : inliers[k].indices) pcl_labels[idx] = static_cast<std::uint32_t>(k + 1);
   }
   std::size_t valid = 0;
   for (const auto& p : pts) valid += p.allFinite();
+  // Both judged against the image's faces as segment_cloud --truth-field judges (80 %, faces of 100 points or more).
+  std::map<int, int> face_points;
+  for (int f : faces) ++face_points[f];
+  const auto judge = [&](const std::vector<std::uint32_t>& l) {
+    std::size_t in_planes = 0;
+    for (auto v : l) in_planes += v != 0;
+    const tlp::sim::HooverScore h = tlp::sim::hooverScore(tlp::sim::RegionOverlap::ofPlaneLabels(faces, l, pts), 0.8,
+                                                          [&](int f) { return face_points[f] >= 100; });
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%zu points in planes; of %d faces correct=%d over=%d under=%d missed=%d noise=%d",
+                  in_planes, h.expected, h.correct, h.over, h.under, h.missed, h.noise);
+    return std::string(buf);
+  };
   const double ours = medianMs(ours_s), theirs = medianMs(pcl_s);
   std::printf("scene %s, a %d x %d range image from the head (%zu returns), medians of 7 runs\n", scene_name.c_str(), n,
               n, valid);
-  std::printf("segment_cloud (split + grouping): %.2f ms, %zu planes, %zu points in planes (timed apart: the split "
-              "%.2f ms, adding the rows %.2f ms, finish %.2f ms)\n",
-              ours, our_planes, our_pts, medianMs(split_s), medianMs(add_s), medianMs(finish_s));
-  std::printf("PCL (integral-image normals + OrganizedMultiPlaneSegmentation): %.2f ms, %zu planes, %zu points in planes\n",
-              theirs, pcl_planes, pcl_pts);
+  std::printf("segment_cloud (split + grouping, every %d. row grouped: --line-spacing-deg %.2f): %.2f ms, %zu planes, "
+              "%s\n  timed apart: the split %.2f ms, adding the rows %.2f ms, finish %.2f ms, the rows between %.2f ms\n",
+              step, spacing_deg, ours, our_planes, judge(labels).c_str(), medianMs(split_s), medianMs(add_s),
+              medianMs(finish_s), medianMs(between_s));
+  std::printf("PCL (integral-image normals + OrganizedMultiPlaneSegmentation): %.2f ms, %zu planes, %s\n", theirs,
+              pcl_planes, judge(pcl_labels).c_str());
   std::printf("ratio=%.3f (1/%.1f)\n", ours / theirs, theirs / ours);
   return 0;
 }
@@ -187,10 +190,12 @@ int main(int argc, char** argv) {
   o.sweeps = 6;
   PclSettings ps;
   int organized_n = 0;
+  double spacing_deg = tlp::core::kOrganizedLineSpacing * 180.0 / M_PI;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--scene") o.scene = argv[i + 1];
     else if (a == "--organized") organized_n = std::atoi(argv[i + 1]);
+    else if (a == "--line-spacing-deg") spacing_deg = std::atof(argv[i + 1]);
     else if (a == "--pcl-depth-change") ps.max_depth_change = std::atof(argv[i + 1]);
     else if (a == "--pcl-smoothing") ps.smoothing = std::atof(argv[i + 1]);
     else if (a == "--pcl-min-inliers") ps.min_inliers = std::atoi(argv[i + 1]);
@@ -202,11 +207,11 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr, "usage: compare_pcl [--scene NAME] [--sweeps N] [--seed S] [--speed RAD_PER_S] [--pcl-depth-change F]\n"
                            "                   [--pcl-smoothing PX] [--pcl-min-inliers N] [--pcl-angle DEG] [--pcl-distance M]\n"
-                           "       compare_pcl --organized N [--scene NAME] [--seed S] [--pcl-...]\n");
+                           "       compare_pcl --organized N [--scene NAME] [--seed S] [--line-spacing-deg D] [--pcl-...]\n");
       return 2;
     }
   }
-  if (organized_n >= 2) return organized(o.scene, organized_n, o.seed, ps);
+  if (organized_n >= 2) return organized(o.scene, organized_n, o.seed, ps, spacing_deg);
   const auto ours = tlp::sim::evaluateScene(o);
   const Eigen::Vector3f head =
       tlp::sim::HeadGeometry::load(tlp::sim::configDirectory() + "/head.yaml").axis_origin.cast<float>();

@@ -19,7 +19,8 @@ using namespace tilt_laser_perception;
 static void usage() {
   std::fprintf(stderr,
                "usage: segment_cloud CLOUD.pcd [--scan-lines rows|columns] [--out LABELS.pcd] [--zeta Z] [--dmin D]\n"
-               "                     [--noise auto|off|SIGMA] [--truth-field NAME [--truth-none V] [--overlap T]]\n"
+               "                     [--noise auto|off|SIGMA] [--line-spacing-deg D]\n"
+               "                     [--truth-field NAME [--truth-none V] [--overlap T]]\n"
                "  the cloud must be organized (HEIGHT > 1); its VIEWPOINT is the sensor's position;\n"
                "  PCD data ascii, binary or binary_compressed, fields in any order (PCL's reader)\n"
                "  --truth-field NAME  judge the planes against the labels in field NAME (Hoover et al., 80 %%)\n"
@@ -29,7 +30,11 @@ static void usage() {
                "                      or auto (estimated from the cloud's own second differences along its rows\n"
                "                      and its columns): a cloud less noisy than 5 mm is judged by its own noise,\n"
                "                      the tolerances scaled down to a fifth at most, the split's zeta to half the\n"
-               "                      angle between beams\n");
+               "                      angle between beams\n"
+               "  --line-spacing-deg D  group scan lines no closer than D degrees (default 0.5; 0: every line): of\n"
+               "                      lines closer than that, every k-th is split and grouped, and a point of a\n"
+               "                      line between joins the plane of the grouped point before or after it in its\n"
+               "                      column that it lies within the grouping's distance of\n");
 }
 
 int main(int argc, char** argv) {
@@ -39,6 +44,7 @@ int main(int argc, char** argv) {
   io::TruthField truth;
   double overlap = 0.8;
   std::string noise = "off";
+  double spacing_deg = core::kOrganizedLineSpacing * 180.0 / M_PI;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
@@ -53,13 +59,14 @@ int main(int argc, char** argv) {
     else if (a == "--truth-none" && v) { truth.has_none = true; truth.none = std::atof(argv[++i]); }
     else if (a == "--overlap" && v) overlap = std::atof(argv[++i]);
     else if (a == "--noise" && v) noise = argv[++i];
+    else if (a == "--line-spacing-deg" && v) spacing_deg = std::atof(argv[++i]);
     else if (a[0] != '-' && in.empty()) in = a;
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
   char* noise_end = nullptr;
   const double noise_sigma = std::strtod(noise.c_str(), &noise_end);
   const bool noise_given = noise_end != noise.c_str() && *noise_end == '\0' && noise_sigma > 0.0;
-  if (in.empty() || !(overlap > 0.5 && overlap <= 1.0) || (noise != "auto" && noise != "off" && !noise_given)) {
+  if (in.empty() || !(spacing_deg >= 0.0) || !(overlap > 0.5 && overlap <= 1.0) || (noise != "auto" && noise != "off" && !noise_given)) {
     usage();
     return 2;
   }
@@ -77,12 +84,16 @@ int main(int argc, char** argv) {
       if (noise_given) cn.sigma = noise_sigma;
       k = core::scaleTolerancesToNoise(cn, split, grouping);
     }
-    core::segmentOrganized(c.points, c.width, c.height, rows, c.viewpoint, split, grouping, planes, labels);
+    const int step = core::organizedLineStep(c.points, c.width, c.height, rows, c.viewpoint, spacing_deg * M_PI / 180.0);
+    core::segmentOrganized(c.points, c.width, c.height, rows, c.viewpoint, split, grouping, planes, labels, step);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::size_t labeled = 0;
     for (auto l : labels) labeled += l != 0;
     std::printf("%s: %d x %d points, scan lines are %s; %zu planes, %zu points in planes; %.2f ms\n", in.c_str(),
                 c.width, c.height, rows ? "rows" : "columns", planes.size(), labeled, ms);
+    if (step > 1)
+      std::printf("scan lines closer than %.2f deg: every %d. grouped, the points of the lines between joined to planes\n",
+                  spacing_deg, step);
     if (noise != "off")
       std::printf("range noise %.1f mm (%s), beams %.3f deg apart: tolerances x %.2f (split d_min %.1f mm, zeta %.4f;"
                   " plane distance %.1f mm)\n",

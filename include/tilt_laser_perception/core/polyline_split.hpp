@@ -32,9 +32,31 @@ namespace core {
 /// Split and scan line grouping of an organized cloud (row-major, width x
 /// height) whose rows (or columns) are scan lines seen from `origin`. Fills
 /// the planes and a label per point (0: no plane, else plane id + 1).
+/// `line_step` k > 1 groups every k-th line (and the last) only; a point of
+/// a line between two grouped ones joins the plane of the grouped point
+/// before or after it in its column that it lies within the grouping's
+/// distance threshold of (the nearer of two). The planes' fits and polygons
+/// are the grouped lines'; their `points` count every labelled point.
+/// `times`, when given, receives the stages' durations.
+struct OrganizedTimes {
+  double split = 0.0, add = 0.0, finish = 0.0, between = 0.0;  ///< [s]: the split, addLine, finish, the lines between
+};
 void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
                       const Eigen::Vector3d& origin, const SplitParams& split, const GroupingParams& grouping,
-                      std::vector<Plane>& planes, std::vector<std::uint32_t>& labels);
+                      std::vector<Plane>& planes, std::vector<std::uint32_t>& labels, int line_step = 1,
+                      OrganizedTimes* times = nullptr);
+
+/// The lines grouped apart no closer than `line_spacing` [rad]: the step k
+/// for segmentOrganized, from the median angle between neighbouring points
+/// across the lines (1 when they are farther apart, when fewer than 100
+/// pairs are valid, or line_spacing <= 0; at most half the lines).
+int organizedLineStep(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
+                      const Eigen::Vector3d& origin, double line_spacing);
+
+/// The spacing of the lines segment_cloud groups by default [rad]: 0.5
+/// degrees, three times the density of the tilting head's sweeps of 36 lines
+/// over 50 degrees, on which the grouping is judged (evaluate).
+constexpr double kOrganizedLineSpacing = 0.5 * 3.14159265358979323846 / 180.0;
 
 /// What an organized cloud's own points say about its sensor.
 struct CloudNoise {
