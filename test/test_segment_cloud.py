@@ -1,6 +1,7 @@
 """segment_cloud as a user runs it: a range image of the ramp scene written by
 scene_cloud (its faces as labels), judged with the default tolerances and with
---noise auto, and the option's bad values refused."""
+--noise auto, every line grouped and every second (the default line spacing on
+a grid 0.25 degrees apart), and the options' bad values refused."""
 import os
 import re
 import subprocess
@@ -15,8 +16,8 @@ def run(*args):
     return subprocess.run([os.path.join(BIN, args[0])] + list(args[1:]), capture_output=True, text=True, timeout=120)
 
 
-def judged(cloud, noise):
-    r = run("segment_cloud", cloud, "--truth-field", "label", "--truth-none", "0", "--noise", noise)
+def judged(cloud, noise, *more):
+    r = run("segment_cloud", cloud, "--truth-field", "label", "--truth-none", "0", "--noise", noise, *more)
     assert r.returncode == 0, r.stderr
     m = re.search(r": (\d+) planes; at 80 % overlap: correct=(\d+) over=(\d+) under=(\d+) missed=(\d+) noise=(\d+)",
                   r.stdout)
@@ -28,10 +29,11 @@ def test_noise_auto_on_a_range_image(tmp_path):
     cloud = str(tmp_path / "ramp.pcd")
     r = run("scene_cloud", cloud, "--scene", "ramp", "--size", "200", "--sigma", "0.001", "--seed", "1")
     assert r.returncode == 0, r.stderr
-    (true, correct, *_), out = judged(cloud, "off")
-    assert "range noise" not in out
+    # Every line grouped (the lines 0.25 degrees apart).
+    (true, correct, *_), out = judged(cloud, "off", "--line-spacing-deg", "0")
+    assert "range noise" not in out and "grouped" not in out
     assert (true, correct) == (9, 7)
-    (true, correct, over, under, missed, noise), out = judged(cloud, "auto")
+    (true, correct, over, under, missed, noise), out = judged(cloud, "auto", "--line-spacing-deg", "0")
     m = re.search(r"range noise ([\d.]+) mm \(estimated\), beams ([\d.]+) deg apart: tolerances x ([\d.]+)", out)
     assert m, out
     sigma_mm, step_deg, k = (float(g) for g in m.groups())
@@ -40,9 +42,29 @@ def test_noise_auto_on_a_range_image(tmp_path):
     assert abs(k - sigma_mm / 5.0) < 0.011
     assert (true, correct, noise) == (9, 8, 0)
     # A noise given: 1 cm is no less than the defaults' 5 mm, the defaults hold.
-    (_, correct_given, *_), out = judged(cloud, "0.01")
+    (_, correct_given, *_), out = judged(cloud, "0.01", "--line-spacing-deg", "0")
     assert "(given)" in out and "tolerances x 1.00" in out
     assert correct_given == 7
+
+
+def test_lines_closer_than_the_spacing_grouped_every_kth(tmp_path):
+    # The default spacing, 0.5 degrees, groups every second of these lines and
+    # joins the points of the others to the planes: no face lost, and here the
+    # landing and the ramp (5.7 degrees apart) part with the defaults too.
+    cloud = str(tmp_path / "ramp.pcd")
+    r = run("scene_cloud", cloud, "--scene", "ramp", "--size", "200", "--sigma", "0.001", "--seed", "1")
+    assert r.returncode == 0, r.stderr
+    (true, correct, over, under, missed, noise), out = judged(cloud, "off")
+    assert "closer than 0.50 deg: every 2. grouped" in out
+    assert (true, correct, noise) == (9, 8, 0)
+    points = int(re.search(r"(\d+) points in planes", out).group(1))
+    (_, correct_all, *_), out_all = judged(cloud, "off", "--line-spacing-deg", "0")
+    points_all = int(re.search(r"(\d+) points in planes", out_all).group(1))
+    assert correct_all == 7
+    # The points between grouped lines join planes: as many points in planes within 1 %.
+    assert abs(points - points_all) < 0.01 * points_all
+    r = run("segment_cloud", cloud, "--line-spacing-deg", "-1")
+    assert r.returncode == 2 and "usage" in r.stderr
 
 
 def test_bad_noise_values_are_refused(tmp_path):
