@@ -1625,4 +1625,17 @@ TEST(OrganizedLines, PointsBetweenGroupedLinesJoinThePlaneTheyLieOn) {
   EXPECT_EQ(on_object, 0);
   // Each plane counts every point labelled with it.
   EXPECT_EQ(planes[0].points + planes[1].points, counted);
+  // The same image transposed, its columns the scan lines: the same labels.
+  std::vector<Eigen::Vector3f> transposed(img.points.size());
+  for (int r = 0; r < img.kRows; ++r)
+    for (int c = 0; c < img.kCols; ++c) transposed[static_cast<std::size_t>(c) * img.kRows + r] = img.points[img.at(r, c)];
+  std::vector<Plane> planes_t;
+  std::vector<std::uint32_t> labels_t;
+  segmentOrganized(transposed, img.kRows, img.kCols, false, img.origin, SplitParams(), GroupingParams(), planes_t,
+                   labels_t, 5);
+  ASSERT_EQ(planes_t.size(), 2u);
+  int differ = 0;
+  for (int r = 0; r < img.kRows; ++r)
+    for (int c = 0; c < img.kCols; ++c) differ += labels_t[static_cast<std::size_t>(c) * img.kRows + r] != labels[img.at(r, c)];
+  EXPECT_EQ(differ, 0);
 }

@@ -97,6 +97,29 @@ void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3
 namespace tilt_laser_perception {
 namespace core {
 
+namespace {
+/// Where the grouped points before and after hold one plane (most of an
+/// image), a run of n points of a line between (x y z each) joins it
+/// without a branch: each point's label is `label` when it lies within
+/// max(min2, ratio2 R^2)^(1/2) of the plane (n . (p - o) = offset), else 0.
+/// Returns how many joined.
+int joinRun(const float* __restrict f, std::uint32_t* __restrict out, std::size_t n, std::uint32_t label,
+            const Eigen::Vector4f& plane, const Eigen::Vector3f& o, float min2, float ratio2) {
+  const float nx = plane[0], ny = plane[1], nz = plane[2], off = plane[3], ox = o.x(), oy = o.y(), oz = o.z();
+  std::uint32_t count = 0;
+#pragma omp simd reduction(+ : count)
+  for (std::size_t m = 0; m < n; ++m) {
+    const float x = f[3 * m] - ox, y = f[3 * m + 1] - oy, z = f[3 * m + 2] - oz;
+    const float d = nx * x + ny * y + nz * z - off;
+    // NaN (no return) compares false: it joins nothing.
+    const std::uint32_t in = d * d <= std::max(min2, ratio2 * (x * x + y * y + z * z));
+    out[m] = label & (0u - in);
+    count += in;
+  }
+  return static_cast<int>(count);
+}
+}  // namespace
+
 int organizedLineStep(const std::vector<Eigen::Vector3f>& points, int width, int height, bool rows,
                       const Eigen::Vector3d& origin, double line_spacing) {
   const int lines = rows ? height : width;
@@ -184,52 +207,44 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
   // A line's i-th point at base(line) + i * stride.
   const std::size_t stride = rows ? 1 : static_cast<std::size_t>(width);
   const auto base = [&](int line) { return index(line, 0); };
-  // Where the points before and after hold one plane (most of an image),
-  // the column's test is the same along a run of them: one plane, no branch.
-  const auto joinRun = [&](const Eigen::Vector3f* pts, std::uint32_t* out, std::size_t n, std::uint32_t label) {
-    const Eigen::Vector4f& pl = plane_of[label];
-    const float nx = pl[0], ny = pl[1], nz = pl[2], off = pl[3];
-    const float* f = pts->data();
-    int count = 0;
-#pragma omp simd reduction(+ : count)
-    for (std::size_t m = 0; m < n; ++m) {
-      const float x = f[3 * m] - o.x(), y = f[3 * m + 1] - o.y(), z = f[3 * m + 2] - o.z();
-      const float d = nx * x + ny * y + nz * z - off;
-      const bool in = d * d <= std::max(min2, ratio2 * (x * x + y * y + z * z));  // NaN: no return, joins nothing
-      out[m] = in ? label : 0u;
-      count += in;
-    }
-    joined[label] += count;
+  // A point between a grouped point of plane a and one of plane b (0: none).
+  const auto joinPoint = [&](const Eigen::Vector3f& p, std::uint32_t a, std::uint32_t b) {
+    const Eigen::Vector3f q = p - o;
+    const float tol2 = std::max(min2, ratio2 * q.squaredNorm());  // NaN: no return, joins nothing
+    const float da = a ? plane_of[a].head<3>().dot(q) - plane_of[a][3] : 0.0f;
+    const float db = b && b != a ? plane_of[b].head<3>().dot(q) - plane_of[b][3] : 0.0f;
+    const bool take_a = a && da * da <= tol2 && (!(b && b != a) || da * da <= db * db);
+    const bool take_b = !take_a && b && b != a && db * db <= tol2;
+    const std::uint32_t label = take_a ? a : take_b ? b : 0u;
+    ++joined[label];
+    return label;
   };
+  // The columns of two grouped lines as runs of one pair of labels, for
+  // every line between them.
+  struct Run {
+    std::size_t first, end;
+    std::uint32_t a, b;
+  };
+  std::vector<Run> runs;
   for (int j = 0; j + 1 < n_grouped; ++j) {
     const std::uint32_t* before = labels.data() + base(grouped[j]);
     const std::uint32_t* after = labels.data() + base(grouped[j + 1]);
+    runs.clear();
+    for (std::size_t i = 0, k = 0; i < static_cast<std::size_t>(length); ++i, k += stride) {
+      if (!runs.empty() && runs.back().a == before[k] && runs.back().b == after[k]) ++runs.back().end;
+      else if (before[k] | after[k]) runs.push_back(Run{i, i + 1, before[k], after[k]});
+      else if (!runs.empty() && (runs.back().a | runs.back().b)) runs.push_back(Run{i, i + 1, 0u, 0u});
+    }
     for (int l = grouped[j] + 1; l < grouped[j + 1]; ++l) {
       const Eigen::Vector3f* pts = points.data() + base(l);
       std::uint32_t* out = labels.data() + base(l);
-      for (std::size_t i = 0, k = 0; i < static_cast<std::size_t>(length);) {
-        const std::uint32_t a = before[k], b = after[k];
-        if (a == b && stride == 1) {
-          std::size_t e = i + 1;
-          while (e < static_cast<std::size_t>(length) && before[e] == a && after[e] == a) ++e;
-          if (a) joinRun(pts + i, out + i, e - i, a);
-          k += e - i;
-          i = e;
+      for (const Run& r : runs) {
+        if (!(r.a | r.b)) continue;
+        if (r.a == r.b && stride == 1) {
+          joined[r.a] += joinRun(pts[r.first].data(), out + r.first, r.end - r.first, r.a, plane_of[r.a], o, min2, ratio2);
           continue;
         }
-        if (a | b) {
-          const Eigen::Vector3f q = pts[k] - o;
-          const float tol2 = std::max(min2, ratio2 * q.squaredNorm());  // NaN: no return, joins nothing
-          const float da = a ? plane_of[a].head<3>().dot(q) - plane_of[a][3] : 0.0f;
-          const float db = b && b != a ? plane_of[b].head<3>().dot(q) - plane_of[b][3] : 0.0f;
-          const bool take_a = a && da * da <= tol2 && (!(b && b != a) || da * da <= db * db);
-          const bool take_b = !take_a && b && b != a && db * db <= tol2;
-          const std::uint32_t label = take_a ? a : take_b ? b : 0u;
-          out[k] = label;
-          ++joined[label];
-        }
-        ++i;
-        k += stride;
+        for (std::size_t i = r.first; i < r.end; ++i) out[i * stride] = joinPoint(pts[i * stride], r.a, r.b);
       }
     }
   }
