@@ -5,6 +5,8 @@
 # each noise, summed over the seeds, as "defaults/auto of true".
 # usage: noise_table.sh BIN_DIR [SIZES="200 100"] [SIGMAS="0 0.0005 0.001 0.002 0.005 0.01"] [SEEDS="1 2"]
 # BIN_DIR holds scene_cloud and segment_cloud (devel/lib/tilt_laser_perception).
+# SEGMENT_ARGS: more options for every segment_cloud call (e.g.
+# "--line-spacing-deg 0" to group every line).
 set -euo pipefail
 bin=${1:?usage: noise_table.sh BIN_DIR [SIZES] [SIGMAS] [SEEDS]}
 sizes=${2:-200 100}
@@ -13,7 +15,8 @@ seeds=${4:-1 2}
 scenes=${SCENES:-stairs clutter ramp stairs_turned corridor split_room}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-correct() { "$bin/segment_cloud" "$1" --truth-field label --truth-none 0 --noise "$2" 2>/dev/null |
+read -r -a more <<< "${SEGMENT_ARGS:-}"
+correct() { "$bin/segment_cloud" "$1" --truth-field label --truth-none 0 --noise "$2" "${more[@]}" 2>/dev/null |
   sed -n 's/.*: \([0-9]*\) planes; .* correct=\([0-9]*\) .*/\2 \1/p'; }
 printf '%-14s %5s' scene size
 for s in $sigmas; do printf ' %14s' "sigma=$s"; done
