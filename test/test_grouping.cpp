@@ -1576,13 +1576,17 @@ TEST(OrganizedLines, StepFromTheAngleBetweenLines) {
   EXPECT_EQ(organizedLineStep(img.points, img.kCols, img.kRows, true, img.origin, 1.0 * deg), 10);
   EXPECT_EQ(organizedLineStep(img.points, img.kCols, img.kRows, true, img.origin, 0.05 * deg), 1);
   EXPECT_EQ(organizedLineStep(img.points, img.kCols, img.kRows, true, img.origin, 0.0), 1);
+  // Without 100 pairs of returns the angle is not known: every line.
+  std::vector<Eigen::Vector3f> none(img.points.size(), Eigen::Vector3f::Constant(std::nanf("")));
+  EXPECT_EQ(organizedLineStep(none, img.kCols, img.kRows, true, img.origin, 0.5 * deg), 1);
   // As columns, the lines are 0.25 degrees apart: 0.5 degrees is every second.
   EXPECT_EQ(organizedLineStep(img.points, img.kCols, img.kRows, false, img.origin, 0.5 * deg), 2);
 }
 
 // Every 5th row grouped: a point of the rows between joins the plane of its
 // column's grouped neighbour that it lies on, the nearer at the crease, and
-// nothing when it lies on neither (an object between two grouped rows).
+// nothing when it lies on neither (an object between two grouped rows) or
+// has no return.
 TEST(OrganizedLines, PointsBetweenGroupedLinesJoinThePlaneTheyLieOn) {
   FloorWallImage img;
   // Rows 101-104 lie between grouped rows 100 and 105: an object 0.2 m in
@@ -1595,6 +1599,12 @@ TEST(OrganizedLines, PointsBetweenGroupedLinesJoinThePlaneTheyLieOn) {
       img.points[i] -= 0.2f * d;
       object[i] = true;
     }
+  // Points without a return between grouped rows (row 52, every other column) join nothing.
+  std::vector<bool> no_return(img.points.size(), false);
+  for (int c = 0; c < img.kCols; c += 2) {
+    img.points[img.at(52, c)] = Eigen::Vector3f::Constant(std::nanf(""));
+    no_return[img.at(52, c)] = true;
+  }
   std::vector<Plane> planes;
   std::vector<std::uint32_t> labels;
   segmentOrganized(img.points, img.kCols, img.kRows, true, img.origin, SplitParams(), GroupingParams(), planes, labels,
@@ -1611,7 +1621,7 @@ TEST(OrganizedLines, PointsBetweenGroupedLinesJoinThePlaneTheyLieOn) {
       const std::size_t i = img.at(r, c);
       counted += labels[i] != 0;
       if (r % 5 == 0 || r == img.kRows - 1) continue;
-      if (object[i]) {
+      if (object[i] || no_return[i]) {
         on_object += labels[i] != 0;
         continue;
       }
