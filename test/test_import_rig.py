@@ -100,6 +100,42 @@ def test_a_stand_over_a_floor_gives_the_floor_at_zero(tmp_path):
     assert f and abs(float(f.group(1))) < 0.01 and float(f.group(3)) > 99.0, grouped
 
 
+def test_the_dump_is_an_organized_cloud_segment_cloud_reads(tmp_path):
+    src, out = str(tmp_path / "stand.bag"), str(tmp_path / "stand_tlp.bag")
+    stand_bag(src)
+    run(sys.executable, IMPORT, src, out)
+    prefix = str(tmp_path / "stand")
+    grouped = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--dump", prefix)
+    lines = int(re.search(r"sweep 0: (\d+) lines", grouped).group(1))
+    cloud = prefix + "_sweep0.pcd"
+    header = {}
+    with open(cloud) as f:
+        for line in f:
+            key, _, value = line.strip().partition(" ")
+            header[key] = value
+            if key == "DATA":
+                break
+        rows = [line.split() for line in f]
+    # A row a scan line, a column a beam; NaN where a beam saw nothing.
+    assert header["FIELDS"] == "x y z label" and header["DATA"] == "ascii", header
+    assert int(header["WIDTH"]) == 681 and int(header["HEIGHT"]) == lines, header
+    assert len(rows) == 681 * lines
+    missing = sum(1 for r in rows if r[0] == "nan")
+    assert 0 < missing < len(rows)
+    # The viewpoint: the laser's mean place, on its 0.08 m arm about the
+    # axle 1.1075 m above the floor.
+    vx, vy, vz = (float(v) for v in header["VIEWPOINT"].split()[:3])
+    assert abs(vy) < 1e-6 and 0.0 < vx < 0.08 and 1.1075 < vz < 1.1075 + 0.08, header
+    # segment_cloud reads it as it is: one plane, the floor, holds the points.
+    seg = run(os.path.join(BIN, "segment_cloud"), cloud)
+    m = re.search(r"681 x %d points, scan lines are rows; (\d+) planes, (\d+) points in planes" % lines, seg)
+    assert m, seg
+    table = [r.split(",") for r in seg.splitlines() if re.match(r"^\d+,", r)]
+    biggest = max(table, key=lambda r: int(r[1]))
+    assert abs(abs(float(biggest[6])) - 1.0) < 1e-3 and abs(float(biggest[10])) < 0.005, seg
+    assert int(biggest[1]) > 0.95 * (len(rows) - missing), seg
+
+
 def test_messages_without_the_fields_are_refused(tmp_path):
     src = str(tmp_path / "empty.bag")
     import rosbag

@@ -4,7 +4,9 @@
 //   group_bag BAG --urdf FILE [--frame base_footprint] [--joint head_tilt_joint] [--laser laser]
 //             [--calibration FILE] [--dump PREFIX] [--room] [--floor-z Z]
 // --calibration applies calibrate's output (joint offset, time offset, the mount).
-// --dump writes each sweep's points with their plane (PREFIX_sweepK.pcd, ascii x y z label, 0: none).
+// --dump writes each sweep's points with their plane (PREFIX_sweepK.pcd, ascii x y z label, 0: none),
+// organized: a row a scan line, NaN where a beam has no return, VIEWPOINT the laser's mean place over
+// the sweep (segment_cloud reads it).
 // --room judges each sweep as a room: the floor (the lowest level that holds
 // 2 % of the points, or the level that --floor-z Z [m] names, +-5 cm) and the
 // largest wall (the vertical plane with the most points within 5 cm, found by
@@ -14,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -153,16 +156,21 @@ int main(int argc, char** argv) {
     }
     if (room) judgeRoom(sw, label, floor_z);
     if (!dump.empty()) {
+      // Organized, a row a scan line (NaN: no return), seen from the laser's
+      // mean place over the sweep: a cloud segment_cloud reads as it is.
       io::OrganizedCloud c;
-      std::vector<std::uint32_t> labels;
+      std::size_t beams = 0;
+      for (const auto& line : sw.lines) beams = std::max(beams, line.points.size());
+      c.width = static_cast<int>(beams);
+      c.height = static_cast<int>(sw.lines.size());
+      c.viewpoint = core::meanOrigin(sw);
+      c.points.assign(beams * sw.lines.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+      std::vector<std::uint32_t> labels(c.points.size(), 0);
       for (std::size_t li = 0; li < sw.lines.size(); ++li)
         for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
-          if (!sw.lines[li].points[i].allFinite()) continue;
-          c.points.push_back(sw.lines[li].points[i]);
-          labels.push_back(static_cast<std::uint32_t>(label[li][i] + 1));
+          c.points[li * beams + i] = sw.lines[li].points[i];
+          labels[li * beams + i] = static_cast<std::uint32_t>(label[li][i] + 1);
         }
-      c.width = static_cast<int>(c.points.size());
-      c.height = 1;
       const std::string path = dump + "_sweep" + std::to_string(sweeps) + ".pcd";
       io::writeLabeledPcd(path, c, labels, true);
       std::printf("  points with their planes: %s\n", path.c_str());
