@@ -98,25 +98,33 @@ namespace tilt_laser_perception {
 namespace core {
 
 namespace {
-/// Where the grouped points before and after hold one plane (most of an
-/// image), a run of n points of a line between (x y z each) joins it
-/// without a branch: each point's label is `label` when it lies within
-/// max(min2, ratio2 R^2)^(1/2) of the plane (n . (p - o) = offset), else 0.
-/// Returns how many joined.
-int joinRun(const float* __restrict f, std::uint32_t* __restrict out, std::size_t n, std::uint32_t label,
-            const Eigen::Vector4f& plane, const Eigen::Vector3f& o, float min2, float ratio2) {
-  const float nx = plane[0], ny = plane[1], nz = plane[2], off = plane[3], ox = o.x(), oy = o.y(), oz = o.z();
-  std::uint32_t count = 0;
-#pragma omp simd reduction(+ : count)
-  for (std::size_t m = 0; m < n; ++m) {
-    const float x = f[3 * m] - ox, y = f[3 * m + 1] - oy, z = f[3 * m + 2] - oz;
-    const float d = nx * x + ny * y + nz * z - off;
-    // NaN (no return) compares false: it joins nothing.
-    const std::uint32_t in = d * d <= std::max(min2, ratio2 * (x * x + y * y + z * z));
-    out[m] = label & (0u - in);
-    count += in;
-  }
-  return static_cast<int>(count);
+/// The median angle [rad] between neighbouring points (i - di, j - dj) and
+/// (i, j) as seen from `o`, over points sampled every `stride` rows and
+/// columns; 0 when fewer than 100 such pairs have both a return.
+double medianNeighbourAngle(const std::vector<Eigen::Vector3f>& points, int width, int height, int di, int dj,
+                            const Eigen::Vector3f& o, int stride) {
+  // A point's direction, or none (no return, or the origin itself).
+  const auto dir = [&](std::size_t i, Eigen::Vector3f& u) {
+    const float r = points[i].allFinite() ? (points[i] - o).norm() : 0.0f;
+    if (!(r > 0.0f) || !std::isfinite(r)) return false;
+    u = (points[i] - o) / r;
+    return true;
+  };
+  std::vector<float> e;
+  Eigen::Vector3f ua, ub;
+  for (int i = di; i < height; i += stride)
+    for (int j = dj; j < width; j += stride)
+      if (dir(static_cast<std::size_t>(i - di) * width + (j - dj), ua) && dir(static_cast<std::size_t>(i) * width + j, ub))
+        e.push_back(std::atan2(ua.cross(ub).norm(), ua.dot(ub)));
+  if (e.size() < 100) return 0.0;
+  auto mid = e.begin() + static_cast<std::ptrdiff_t>(e.size() / 2);
+  std::nth_element(e.begin(), mid, e.end());
+  return static_cast<double>(*mid);
+}
+
+/// A grid stride that samples about n of the points.
+int strideFor(std::size_t points, double n) {
+  return std::max(1, static_cast<int>(std::sqrt(static_cast<double>(points) / n)));
 }
 }  // namespace
 
@@ -124,25 +132,12 @@ int organizedLineStep(const std::vector<Eigen::Vector3f>& points, int width, int
                       const Eigen::Vector3d& origin, double line_spacing) {
   const int lines = rows ? height : width;
   if (!(line_spacing > 0.0) || lines < 3) return 1;
-  // The median angle between neighbouring points across the lines, from
-  // about 2,000 pairs on a grid.
-  const Eigen::Vector3f o = origin.cast<float>();
-  const int stride = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(points.size()) / 2000.0)));
-  std::vector<float> angles;
-  for (int i = 1; i < height; i += stride)
-    for (int j = 1; j < width; j += stride) {
-      const Eigen::Vector3f a = points[static_cast<std::size_t>(i) * width + j] - o;
-      const Eigen::Vector3f b = points[rows ? static_cast<std::size_t>(i - 1) * width + j
-                                            : static_cast<std::size_t>(i) * width + j - 1] - o;
-      if (a.allFinite() && b.allFinite() && a.squaredNorm() > 0.0f && b.squaredNorm() > 0.0f)
-        angles.push_back(std::atan2(a.cross(b).norm(), a.dot(b)));
-    }
-  if (angles.size() < 100) return 1;
-  auto mid = angles.begin() + static_cast<std::ptrdiff_t>(angles.size() / 2);
-  std::nth_element(angles.begin(), mid, angles.end());
-  if (!(*mid > 0.0f)) return 1;
+  // Across the lines, from about 2,000 pairs.
+  const double across = medianNeighbourAngle(points, width, height, rows ? 1 : 0, rows ? 0 : 1, origin.cast<float>(),
+                                             strideFor(points.size(), 2000.0));
+  if (!(across > 0.0)) return 1;
   // 1 % of slack: 0.5 degrees over lines 0.1 degrees apart is 5 lines.
-  return std::clamp(static_cast<int>(std::floor(1.01 * line_spacing / *mid)), 1, (lines - 1) / 2);
+  return std::clamp(static_cast<int>(std::floor(1.01 * line_spacing / across)), 1, (lines - 1) / 2);
 }
 
 void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int height, bool rows,
@@ -207,45 +202,30 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
   // A line's i-th point at base(line) + i * stride.
   const std::size_t stride = rows ? 1 : static_cast<std::size_t>(width);
   const auto base = [&](int line) { return index(line, 0); };
-  // A point between a grouped point of plane a and one of plane b (0: none).
+  // A point between a grouped point of plane a and one of plane b (0: none):
+  // the nearer plane (a when as near), if within the distance.
   const auto joinPoint = [&](const Eigen::Vector3f& p, std::uint32_t a, std::uint32_t b) {
     const Eigen::Vector3f q = p - o;
-    const float tol2 = std::max(min2, ratio2 * q.squaredNorm());  // NaN: no return, joins nothing
-    const float da = a ? plane_of[a].head<3>().dot(q) - plane_of[a][3] : 0.0f;
-    const float db = b && b != a ? plane_of[b].head<3>().dot(q) - plane_of[b][3] : 0.0f;
-    const bool take_a = a && da * da <= tol2 && (!(b && b != a) || da * da <= db * db);
-    const bool take_b = !take_a && b && b != a && db * db <= tol2;
-    const std::uint32_t label = take_a ? a : take_b ? b : 0u;
+    const auto dist2 = [&](std::uint32_t c) {
+      if (!c) return std::numeric_limits<float>::infinity();
+      const float d = plane_of[c].head<3>().dot(q) - plane_of[c][3];
+      return d * d;
+    };
+    const float da = dist2(a), db = b == a ? da : dist2(b);
+    const float d = db < da ? db : da;
+    // NaN (no return) compares false: it joins nothing.
+    const std::uint32_t label = d <= std::max(min2, ratio2 * q.squaredNorm()) ? (db < da ? b : a) : 0u;
     ++joined[label];
     return label;
   };
-  // The columns of two grouped lines as runs of one pair of labels, for
-  // every line between them.
-  struct Run {
-    std::size_t first, end;
-    std::uint32_t a, b;
-  };
-  std::vector<Run> runs;
   for (int j = 0; j + 1 < n_grouped; ++j) {
     const std::uint32_t* before = labels.data() + base(grouped[j]);
     const std::uint32_t* after = labels.data() + base(grouped[j + 1]);
-    runs.clear();
-    for (std::size_t i = 0, k = 0; i < static_cast<std::size_t>(length); ++i, k += stride) {
-      if (!runs.empty() && runs.back().a == before[k] && runs.back().b == after[k]) ++runs.back().end;
-      else if (before[k] | after[k]) runs.push_back(Run{i, i + 1, before[k], after[k]});
-      else if (!runs.empty() && (runs.back().a | runs.back().b)) runs.push_back(Run{i, i + 1, 0u, 0u});
-    }
     for (int l = grouped[j] + 1; l < grouped[j + 1]; ++l) {
       const Eigen::Vector3f* pts = points.data() + base(l);
       std::uint32_t* out = labels.data() + base(l);
-      for (const Run& r : runs) {
-        if (!(r.a | r.b)) continue;
-        if (r.a == r.b && stride == 1) {
-          joined[r.a] += joinRun(pts[r.first].data(), out + r.first, r.end - r.first, r.a, plane_of[r.a], o, min2, ratio2);
-          continue;
-        }
-        for (std::size_t i = r.first; i < r.end; ++i) out[i * stride] = joinPoint(pts[i * stride], r.a, r.b);
-      }
+      for (std::size_t k = 0; k < static_cast<std::size_t>(length) * stride; k += stride)
+        if (before[k] | after[k]) out[k] = joinPoint(pts[k], before[k], after[k]);
     }
   }
   for (Plane& p : planes) p.points += joined[p.id + 1];
@@ -257,15 +237,14 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
   CloudNoise out;
   if (width < 3 && height < 3) return out;
   const Eigen::Vector3f o = origin.cast<float>();
-  // A point's range (NaN: none) and direction, for the points sampled only.
+  // A point's range (NaN: none), for the points sampled only.
   const auto range = [&](std::size_t i) {
     const float r = points[i].allFinite() ? (points[i] - o).norm() : 0.0f;
     return r > 0.0f && std::isfinite(r) ? r : std::numeric_limits<float>::quiet_NaN();  // the origin has no direction
   };
-  const auto dir = [&](std::size_t i, float r) { return Eigen::Vector3f((points[i] - o) / r); };
   // About 20,000 samples a direction are plenty for a median; a large cloud
   // is sampled on a grid.
-  const int stride = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(points.size()) / 20000.0)));
+  const int stride = strideFor(points.size(), 20000.0);
   std::vector<float> e;
   const auto median = [&](std::size_t min_count) {
     if (e.size() < min_count) return 0.0;
@@ -284,18 +263,7 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
     return 1.4826 * median(100) / std::sqrt(1.5);
   };
   out.sigma = std::max(sigmaOf(0, 1), sigmaOf(1, 0));
-  e.clear();
-  const int di = lines_are_rows ? 0 : 1, dj = lines_are_rows ? 1 : 0;  // along a line
-  for (int i = di; i < height; i += stride)
-    for (int j = dj; j < width; j += stride) {
-      const std::size_t ia = at(i - di, j - dj), ib = at(i, j);
-      const float ra = range(ia), rb = range(ib);
-      if (std::isfinite(ra) && std::isfinite(rb)) {
-        const Eigen::Vector3f ua = dir(ia, ra), ub = dir(ib, rb);
-        e.push_back(std::atan2(ua.cross(ub).norm(), ua.dot(ub)));
-      }
-    }
-  out.step = median(100);
+  out.step = medianNeighbourAngle(points, width, height, lines_are_rows ? 0 : 1, lines_are_rows ? 1 : 0, o, stride);
   return out;
 }
 
