@@ -35,8 +35,12 @@ void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3
     w.x[i] = d.x();
     w.y[i] = d.y();
     w.z[i] = d.z();
-    w.r[i] = d.allFinite() ? d.norm() : std::numeric_limits<float>::quiet_NaN();
   }
+  // The ranges, several an instruction; a point with a NaN or an infinite
+  // coordinate has none (NaN).
+  Eigen::Map<Eigen::ArrayXf> r(w.r.data(), n);
+  r = (w.x.square() + w.y.square() + w.z.square()).sqrt();
+  r = (r < std::numeric_limits<float>::infinity()).select(r, std::numeric_limits<float>::quiet_NaN());
   const auto emit = [&](int a, int b) {
     Segment3 s;
     if (b - a + 1 >= p.min_points && makeSegment3(pts, w.r, line, a, b, s)) {
@@ -140,6 +144,37 @@ int organizedLineStep(const std::vector<Eigen::Vector3f>& points, int width, int
   return std::clamp(static_cast<int>(std::floor(1.01 * line_spacing / across)), 1, (lines - 1) / 2);
 }
 
+namespace {
+/// The points first..end-1 of a line between two grouped ones whose column
+/// neighbours there are of planes a and b: each joins the nearer of the two
+/// (a when as near; the plane of label 0 is infinitely far), if within the
+/// distance max(min2, ratio2 * R^2) (squared); a point with no return (NaN)
+/// compares false and joins nothing. One pair of planes, no branch: the
+/// loop runs several points an instruction. Points xyz at pts + 3 * i *
+/// stride (kStride, when not 0, is stride known at compile time); labels at
+/// out + i * stride. The points that joined a and b.
+template <int kStride, bool kOnePlane>
+std::pair<int, int> joinRun(const float* pts, std::uint32_t* out, int first, int end, std::size_t stride,
+                            std::uint32_t a, std::uint32_t b, const Eigen::Vector4f& pa, const Eigen::Vector4f& pb,
+                            float ox, float oy, float oz, float min2, float ratio2) {
+  const std::size_t st = kStride ? static_cast<std::size_t>(kStride) : stride;
+  int na = 0, nb = 0;
+  for (int i = first; i < end; ++i) {
+    const float* pt = pts + 3 * st * static_cast<std::size_t>(i);
+    const float x = pt[0] - ox, y = pt[1] - oy, z = pt[2] - oz;
+    const float ea = pa[0] * x + pa[1] * y + pa[2] * z - pa[3];
+    const float eb = kOnePlane ? ea : pb[0] * x + pb[1] * y + pb[2] * z - pb[3];
+    const float da = ea * ea, db = eb * eb;
+    const bool near_b = db < da;
+    const bool in = std::min(da, db) <= std::max(min2, ratio2 * (x * x + y * y + z * z));
+    out[st * static_cast<std::size_t>(i)] = in ? (near_b ? b : a) : 0u;
+    na += in & !near_b;
+    nb += in & near_b;
+  }
+  return {na, nb};
+}
+}  // namespace
+
 void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int height, bool rows,
                       const Eigen::Vector3d& origin, const SplitParams& split, const GroupingParams& grouping,
                       std::vector<Plane>& planes, std::vector<std::uint32_t>& labels, int line_step,
@@ -189,43 +224,54 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
   // The lines between two grouped ones: a point joins the plane of the
   // grouped point before or after it in its column that it lies within the
   // grouping's distance of (the nearer of two), as a segment joins a plane.
-  // Planes as n . q = offset, q relative to the origin; by label.
+  // Planes as n . q = offset, q relative to the origin; by label. Label 0,
+  // none, is infinitely far from every point.
   std::uint32_t max_label = 0;
   for (const Plane& p : planes) max_label = std::max(max_label, static_cast<std::uint32_t>(p.id + 1));
   std::vector<Eigen::Vector4f> plane_of(max_label + 1, Eigen::Vector4f::Zero());
+  plane_of[0][3] = std::numeric_limits<float>::infinity();
   for (const Plane& p : planes)
     plane_of[p.id + 1] << p.fit.normal.cast<float>(), static_cast<float>(p.fit.normal.dot(p.fit.centroid - origin));
   std::vector<int> joined(max_label + 1, 0);
-  const Eigen::Vector3f o = origin.cast<float>();
+  const float ox = static_cast<float>(origin.x()), oy = static_cast<float>(origin.y()),
+              oz = static_cast<float>(origin.z());
   const float min2 = static_cast<float>(grouping.dist_min * grouping.dist_min);
   const float ratio2 = static_cast<float>(grouping.dist_ratio * grouping.dist_ratio);
   // A line's i-th point at base(line) + i * stride.
   const std::size_t stride = rows ? 1 : static_cast<std::size_t>(width);
   const auto base = [&](int line) { return index(line, 0); };
-  // A point between a grouped point of plane a and one of plane b (0: none):
-  // the nearer plane (a when as near), if within the distance.
-  const auto joinPoint = [&](const Eigen::Vector3f& p, std::uint32_t a, std::uint32_t b) {
-    const Eigen::Vector3f q = p - o;
-    const auto dist2 = [&](std::uint32_t c) {
-      if (!c) return std::numeric_limits<float>::infinity();
-      const float d = plane_of[c].head<3>().dot(q) - plane_of[c][3];
-      return d * d;
-    };
-    const float da = dist2(a), db = b == a ? da : dist2(b);
-    const float d = db < da ? db : da;
-    // NaN (no return) compares false: it joins nothing.
-    const std::uint32_t label = d <= std::max(min2, ratio2 * q.squaredNorm()) ? (db < da ? b : a) : 0u;
-    ++joined[label];
-    return label;
+  // The columns of two grouped lines as runs of one label pair [first, end).
+  struct Run {
+    int first, end;
+    std::uint32_t a, b;
   };
+  std::vector<Run> runs;
   for (int j = 0; j + 1 < n_grouped; ++j) {
     const std::uint32_t* before = labels.data() + base(grouped[j]);
     const std::uint32_t* after = labels.data() + base(grouped[j + 1]);
-    for (int l = grouped[j] + 1; l < grouped[j + 1]; ++l) {
-      const Eigen::Vector3f* pts = points.data() + base(l);
-      std::uint32_t* out = labels.data() + base(l);
-      for (std::size_t k = 0; k < static_cast<std::size_t>(length) * stride; k += stride)
-        if (before[k] | after[k]) out[k] = joinPoint(pts[k], before[k], after[k]);
+    runs.clear();
+    for (int i = 0; i < length; ++i) {
+      const std::uint32_t a = before[i * stride], b = after[i * stride];
+      if (!(a | b)) continue;
+      if (!runs.empty() && runs.back().end == i && runs.back().a == a && runs.back().b == b)
+        ++runs.back().end;
+      else
+        runs.push_back({i, i + 1, a, b});
+    }
+    for (const Run& run : runs) {
+      const std::uint32_t a = run.a, b = run.b;
+      const Eigen::Vector4f pa = plane_of[a], pb = plane_of[b];
+      for (int l = grouped[j] + 1; l < grouped[j + 1]; ++l) {
+        const float* pts = points[base(l)].data();
+        std::uint32_t* out = labels.data() + base(l);
+        const auto [na, nb] =
+            stride == 1 ? (a == b ? joinRun<1, true> : joinRun<1, false>)(pts, out, run.first, run.end, 1, a, b, pa, pb,
+                                                                          ox, oy, oz, min2, ratio2)
+                        : (a == b ? joinRun<0, true> : joinRun<0, false>)(pts, out, run.first, run.end, stride, a, b,
+                                                                          pa, pb, ox, oy, oz, min2, ratio2);
+        joined[a] += na;
+        joined[b] += nb;
+      }
     }
   }
   for (Plane& p : planes) p.points += joined[p.id + 1];
