@@ -114,16 +114,18 @@ double medianNeighbourAngle(const std::vector<Eigen::Vector3f>& points, int widt
     u = (points[i] - o) / r;
     return true;
   };
+  // The chord between the two directions, which grows with the angle: the
+  // median chord gives the median angle.
   std::vector<float> e;
   Eigen::Vector3f ua, ub;
   for (int i = di; i < height; i += stride)
     for (int j = dj; j < width; j += stride)
       if (dir(static_cast<std::size_t>(i - di) * width + (j - dj), ua) && dir(static_cast<std::size_t>(i) * width + j, ub))
-        e.push_back(std::atan2(ua.cross(ub).norm(), ua.dot(ub)));
+        e.push_back((ua - ub).norm());
   if (e.size() < 100) return 0.0;
   auto mid = e.begin() + static_cast<std::ptrdiff_t>(e.size() / 2);
   std::nth_element(e.begin(), mid, e.end());
-  return static_cast<double>(*mid);
+  return 2.0 * std::asin(std::min(1.0, 0.5 * static_cast<double>(*mid)));
 }
 
 /// A grid stride that samples about n of the points.
