@@ -88,12 +88,11 @@ int countLines(const std::vector<int>& members, const Segs& segs) {
 /// end points and centroids: enough to tell neighbours from strangers.
 bool near(const Segment3& a, const Segment3& b, double limit) {
   const double l2 = limit * limit;
-  const Eigen::Vector3d pa[3] = {a.start, a.end, a.moments.mean()};
-  const Eigen::Vector3d pb[3] = {b.start, b.end, b.moments.mean()};
-  for (const auto& x : pa)
-    for (const auto& y : pb)
-      if ((x - y).squaredNorm() <= l2) return true;
-  return false;
+  const auto close = [l2](const Eigen::Vector3d& x, const Eigen::Vector3d& y) { return (x - y).squaredNorm() <= l2; };
+  // The ends first (neighbouring lines' ends are usually close), the centroids only if not.
+  if (close(a.start, b.start) || close(a.end, b.end) || close(a.start, b.end) || close(a.end, b.start)) return true;
+  const Eigen::Vector3d ca = a.moments.mean(), cb = b.moments.mean();
+  return close(ca, b.start) || close(ca, b.end) || close(a.start, cb) || close(a.end, cb) || close(ca, cb);
 }
 
 /// A segment of pts[first..last] (NaN points skipped); rangeOf(i) is point i's range.
