@@ -8,7 +8,8 @@
 // Times segment_cloud's split and grouping (core::segmentOrganized) and PCL's
 // normals and segmentation on one N x N organized cloud of the scene (a range
 // image from the head, rows of equal elevation), the median of 7 runs each,
-// and prints their ratio, the stages timed apart, and both methods' Hoover
+// and prints their ratio (segment_cloud with one thread and with two), the
+// stages timed apart, and both methods' Hoover
 // figures against the image's faces. segment_cloud groups rows no closer
 // than --line-spacing-deg (its default; 0: every row).
 #include <algorithm>
@@ -128,8 +129,9 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
   }
   const auto now = [] { return std::chrono::steady_clock::now(); };
   const auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
-  std::vector<double> ours_s, pcl_s, split_s, add_s, finish_s, between_s;
-  std::vector<std::uint32_t> labels, pcl_labels(pts.size(), 0);
+  std::vector<double> ours_s, ours2_s, pcl_s, split_s, add_s, finish_s, between_s;
+  std::vector<std::uint32_t> labels, labels2, pcl_labels(pts.size(), 0);
+  bool same = true;
   std::size_t our_planes = 0, pcl_planes = 0;
   int step = 1;
   for (int run = 0; run < 7; ++run) {
@@ -146,6 +148,14 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
     finish_s.push_back(times.finish);
     between_s.push_back(times.between);
     our_planes = planes.size();
+    // Again with segment_cloud's second thread (its default on two cores or more).
+    std::vector<tlp::core::Plane> planes2;
+    const auto t2 = now();
+    const int step2 = tlp::core::organizedLineStep(pts, n, n, true, head, spacing_deg * M_PI / 180.0);
+    tlp::core::segmentOrganized(pts, n, n, true, head, tlp::core::SplitParams(), tlp::core::GroupingParams(), planes2,
+                                labels2, step2, nullptr, 2);
+    ours2_s.push_back(secs(t2, now()));
+    same = same && labels2 == labels && planes2.size() == planes.size();
     std::vector<pcl::ModelCoefficients> coefficients;
     std::vector<pcl::PointIndices> inliers;
     const auto t1 = now();
@@ -171,16 +181,21 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
                   in_planes, h.expected, h.correct, h.over, h.under, h.missed, h.noise);
     return std::string(buf);
   };
-  const double ours = medianMs(ours_s), theirs = medianMs(pcl_s);
+  const double ours = medianMs(ours_s), ours2 = medianMs(ours2_s), theirs = medianMs(pcl_s);
   std::printf("scene %s, a %d x %d range image from the head (%zu returns), medians of 7 runs\n", scene_name.c_str(), n,
               n, valid);
-  std::printf("segment_cloud (split + grouping, every %d. row grouped: --line-spacing-deg %.2f): %.2f ms, %zu planes, "
-              "%s\n  timed apart: the split %.2f ms, adding the rows %.2f ms, finish %.2f ms, the rows between %.2f ms\n",
+  std::printf("segment_cloud (split + grouping, every %d. row grouped: --line-spacing-deg %.2f), one thread: %.2f ms, "
+              "%zu planes, %s\n  timed apart: the split %.2f ms, adding the rows %.2f ms, finish %.2f ms, the rows "
+              "between %.2f ms\n",
               step, spacing_deg, ours, our_planes, judge(labels).c_str(), medianMs(split_s), medianMs(add_s),
               medianMs(finish_s), medianMs(between_s));
+  std::printf("segment_cloud, two threads (--threads 2, its default on two cores or more): %.2f ms, the same planes and "
+              "labels: %s\n",
+              ours2, same ? "yes" : "NO");
   std::printf("PCL (integral-image normals + OrganizedMultiPlaneSegmentation): %.2f ms, %zu planes, %s\n", theirs,
               pcl_planes, judge(pcl_labels).c_str());
-  std::printf("ratio=%.3f (1/%.1f)\n", ours / theirs, theirs / ours);
+  std::printf("ratio=%.3f (1/%.1f) one thread; ratio2=%.3f (1/%.1f) two threads (PCL: one)\n", ours / theirs,
+              theirs / ours, ours2 / theirs, theirs / ours2);
   return 0;
 }
 }  // namespace

@@ -1692,4 +1692,21 @@ TEST(OrganizedLines, PointsBetweenGroupedLinesJoinThePlaneTheyLieOn) {
   for (int r = 0; r < img.kRows; ++r)
     for (int c = 0; c < img.kCols; ++c) differ += labels_t[static_cast<std::size_t>(c) * img.kRows + r] != labels[img.at(r, c)];
   EXPECT_EQ(differ, 0);
+  // With a second thread (it splits while this one groups, and takes half
+  // the lines between), rows or columns: the same planes and labels.
+  for (const bool rows : {true, false}) {
+    const auto& pts = rows ? img.points : transposed;
+    const int w = rows ? img.kCols : img.kRows, h = rows ? img.kRows : img.kCols;
+    const auto& want_labels = rows ? labels : labels_t;
+    const auto& want_planes = rows ? planes : planes_t;
+    std::vector<Plane> planes2;
+    std::vector<std::uint32_t> labels2;
+    segmentOrganized(pts, w, h, rows, img.origin, SplitParams(), GroupingParams(), planes2, labels2, 5, nullptr, 2);
+    ASSERT_EQ(planes2.size(), want_planes.size()) << rows;
+    EXPECT_TRUE(labels2 == want_labels) << rows;
+    for (std::size_t k = 0; k < planes2.size(); ++k) {
+      EXPECT_EQ(planes2[k].points, want_planes[k].points) << rows;
+      EXPECT_EQ(planes2[k].fit.normal, want_planes[k].fit.normal) << rows;
+    }
+  }
 }

@@ -72,3 +72,27 @@ def test_bad_noise_values_are_refused(tmp_path):
         r = run("segment_cloud", str(tmp_path / "none.pcd"), "--noise", bad)
         assert r.returncode == 2, (bad, r.stdout, r.stderr)
         assert "usage" in r.stderr
+
+
+def test_two_threads_give_the_same_planes_and_labels(tmp_path):
+    # --threads 2 (the default on two cores or more) splits the lines on a
+    # second thread while the first groups them: the same planes, to the
+    # printed digit, and the same label for every point.
+    cloud = str(tmp_path / "ramp.pcd")
+    r = run("scene_cloud", cloud, "--scene", "ramp", "--size", "200", "--sigma", "0.01", "--seed", "2")
+    assert r.returncode == 0, r.stderr
+    outs = {}
+    for t in ("1", "2"):
+        labels = str(tmp_path / ("labels%s.pcd" % t))
+        r = run("segment_cloud", cloud, "--threads", t, "--out", labels)
+        assert r.returncode == 0, r.stderr
+        assert "(%s thread%s)" % (t, "s" if t == "2" else "") in r.stdout
+        rows = [l for l in r.stdout.splitlines() if re.match(r"^\d+,", l)]
+        assert len(rows) >= 5, r.stdout
+        with open(labels, "rb") as f:
+            outs[t] = (rows, f.read())
+    assert outs["1"][0] == outs["2"][0]
+    assert outs["1"][1] == outs["2"][1]
+    for bad in ("0", "-2"):
+        r = run("segment_cloud", cloud, "--threads", bad)
+        assert r.returncode == 2 and "usage" in r.stderr

@@ -1,10 +1,12 @@
 #include "tilt_laser_perception/core/polyline_split.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <thread>
 
 namespace tilt_laser_perception {
 namespace core {
@@ -180,7 +182,7 @@ std::pair<int, int> joinRun(const float* pts, std::uint32_t* out, int first, int
 void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int height, bool rows,
                       const Eigen::Vector3d& origin, const SplitParams& split, const GroupingParams& grouping,
                       std::vector<Plane>& planes, std::vector<std::uint32_t>& labels, int line_step,
-                      OrganizedTimes* times) {
+                      OrganizedTimes* times, int threads) {
   using Clock = std::chrono::steady_clock;
   const auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
   OrganizedTimes local;
@@ -201,26 +203,56 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
   g.reset(origin);
   // Each line's points kept: finish() cuts the segments that cross a crease by them.
   std::vector<std::vector<Eigen::Vector3f>> line_pts(n_grouped, std::vector<Eigen::Vector3f>(length));
-  std::vector<Segment3> segs;
-  for (int j = 0; j < n_grouped; ++j) {
+  std::vector<std::vector<Segment3>> line_segs(n_grouped);
+  const auto splitLine = [&](int j) {
     for (int i = 0; i < length; ++i) line_pts[j][i] = points[index(grouped[j], i)];
-    segs.clear();
-    const auto t0 = Clock::now();
-    splitPolyline(line_pts[j], origin, split, j, segs);
+    splitPolyline(line_pts[j], origin, split, j, line_segs[j]);
+  };
+  // Two threads: one splits the lines, the other adds each as soon as it is split.
+  const bool two = threads >= 2 && n_grouped >= 4;
+  if (two) {
+    std::atomic<int> ready{0};
+    std::thread splitter([&] {
+      const auto t0 = Clock::now();
+      for (int j = 0; j < n_grouped; ++j) {
+        splitLine(j);
+        ready.store(j + 1, std::memory_order_release);
+      }
+      tm.split = since(t0);
+    });
     const auto t1 = Clock::now();
-    g.addLine(segs);
-    tm.split += std::chrono::duration<double>(t1 - t0).count();
-    tm.add += since(t1);
+    for (int j = 0; j < n_grouped; ++j) {
+      while (ready.load(std::memory_order_acquire) <= j) std::this_thread::yield();
+      g.addLine(line_segs[j]);
+    }
+    splitter.join();
+    tm.add = since(t1);
+  } else {
+    for (int j = 0; j < n_grouped; ++j) {
+      const auto t0 = Clock::now();
+      splitLine(j);
+      const auto t1 = Clock::now();
+      g.addLine(line_segs[j]);
+      tm.split += std::chrono::duration<double>(t1 - t0).count();
+      tm.add += since(t1);
+    }
   }
   const auto t2 = Clock::now();
   g.finish(planes, [&](int j) { return &line_pts[j]; });
   tm.finish = since(t2);
+  // A line's i-th point at base(line) + i * stride.
+  const std::size_t stride = rows ? 1 : static_cast<std::size_t>(width);
+  const auto base = [&](int line) { return index(line, 0); };
   labels.assign(points.size(), 0);
-  for (const Plane& p : planes)
+  const std::vector<Segment3>& segs = g.segments();
+  for (const Plane& p : planes) {
+    const auto label = static_cast<std::uint32_t>(p.id + 1);
     for (int m : p.members) {
-      const Segment3& s = g.segments()[m];
-      for (int i = s.first; i <= s.last; ++i) labels[index(grouped[s.line], i)] = static_cast<std::uint32_t>(p.id + 1);
+      const Segment3& s = segs[m];
+      std::uint32_t* out = labels.data() + base(grouped[s.line]);
+      for (int i = s.first; i <= s.last; ++i) out[i * stride] = label;
     }
+  }
   if (step == 1) return;
   const auto t3 = Clock::now();
   // The lines between two grouped ones: a point joins the plane of the
@@ -234,47 +266,61 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
   plane_of[0][3] = std::numeric_limits<float>::infinity();
   for (const Plane& p : planes)
     plane_of[p.id + 1] << p.fit.normal.cast<float>(), static_cast<float>(p.fit.normal.dot(p.fit.centroid - origin));
-  std::vector<int> joined(max_label + 1, 0);
   const float ox = static_cast<float>(origin.x()), oy = static_cast<float>(origin.y()),
               oz = static_cast<float>(origin.z());
   const float min2 = static_cast<float>(grouping.dist_min * grouping.dist_min);
   const float ratio2 = static_cast<float>(grouping.dist_ratio * grouping.dist_ratio);
-  // A line's i-th point at base(line) + i * stride.
-  const std::size_t stride = rows ? 1 : static_cast<std::size_t>(width);
-  const auto base = [&](int line) { return index(line, 0); };
-  // The columns of two grouped lines as runs of one label pair [first, end).
-  struct Run {
-    int first, end;
-    std::uint32_t a, b;
-  };
-  std::vector<Run> runs;
-  for (int j = 0; j + 1 < n_grouped; ++j) {
-    const std::uint32_t* before = labels.data() + base(grouped[j]);
-    const std::uint32_t* after = labels.data() + base(grouped[j + 1]);
-    runs.clear();
-    for (int i = 0; i < length; ++i) {
-      const std::uint32_t a = before[i * stride], b = after[i * stride];
-      if (!(a | b)) continue;
-      if (!runs.empty() && runs.back().end == i && runs.back().a == a && runs.back().b == b)
-        ++runs.back().end;
-      else
-        runs.push_back({i, i + 1, a, b});
-    }
-    for (const Run& run : runs) {
-      const std::uint32_t a = run.a, b = run.b;
-      const Eigen::Vector4f pa = plane_of[a], pb = plane_of[b];
-      for (int l = grouped[j] + 1; l < grouped[j + 1]; ++l) {
-        const float* pts = points[base(l)].data();
-        std::uint32_t* out = labels.data() + base(l);
-        const auto [na, nb] =
-            stride == 1 ? (a == b ? joinRun<1, true> : joinRun<1, false>)(pts, out, run.first, run.end, 1, a, b, pa, pb,
-                                                                          ox, oy, oz, min2, ratio2)
-                        : (a == b ? joinRun<0, true> : joinRun<0, false>)(pts, out, run.first, run.end, stride, a, b,
-                                                                          pa, pb, ox, oy, oz, min2, ratio2);
-        joined[a] += na;
-        joined[b] += nb;
+  // The lines between grouped lines j0 .. j1 - 1 and the next; the points
+  // that joined each plane counted into `joined`.
+  const auto joinBetween = [&](int j0, int j1, std::vector<int>& joined) {
+    // The columns of two grouped lines as runs of one label pair [first, end).
+    struct Run {
+      int first, end;
+      std::uint32_t a, b;
+    };
+    std::vector<Run> runs;
+    for (int j = j0; j < j1; ++j) {
+      const std::uint32_t* before = labels.data() + base(grouped[j]);
+      const std::uint32_t* after = labels.data() + base(grouped[j + 1]);
+      runs.clear();
+      Run run{0, 0, 0, 0};  // the current one, kept when it holds a plane
+      for (int i = 0; i < length; ++i) {
+        const std::uint32_t a = before[i * stride], b = after[i * stride];
+        if (a == run.a && b == run.b) continue;
+        run.end = i;
+        if (run.a | run.b) runs.push_back(run);
+        run = {i, i, a, b};
+      }
+      run.end = length;
+      if (run.a | run.b) runs.push_back(run);
+      for (const Run& run : runs) {
+        const std::uint32_t a = run.a, b = run.b;
+        const Eigen::Vector4f pa = plane_of[a], pb = plane_of[b];
+        for (int l = grouped[j] + 1; l < grouped[j + 1]; ++l) {
+          const float* pts = points[base(l)].data();
+          std::uint32_t* out = labels.data() + base(l);
+          const auto [na, nb] =
+              stride == 1 ? (a == b ? joinRun<1, true> : joinRun<1, false>)(pts, out, run.first, run.end, 1, a, b, pa,
+                                                                            pb, ox, oy, oz, min2, ratio2)
+                          : (a == b ? joinRun<0, true> : joinRun<0, false>)(pts, out, run.first, run.end, stride, a,
+                                                                            b, pa, pb, ox, oy, oz, min2, ratio2);
+          joined[a] += na;
+          joined[b] += nb;
+        }
       }
     }
+  };
+  std::vector<int> joined(max_label + 1, 0);
+  if (two) {
+    // Each thread its half of the lines: they write apart.
+    const int half = (n_grouped - 1) / 2;
+    std::vector<int> joined_first(max_label + 1, 0);
+    std::thread first([&] { joinBetween(0, half, joined_first); });
+    joinBetween(half, n_grouped - 1, joined);
+    first.join();
+    for (std::size_t i = 0; i < joined.size(); ++i) joined[i] += joined_first[i];
+  } else {
+    joinBetween(0, n_grouped - 1, joined);
   }
   for (Plane& p : planes) p.points += joined[p.id + 1];
   tm.between = since(t3);

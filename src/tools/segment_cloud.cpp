@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <exception>
 #include <string>
+#include <thread>
 
 #include "tilt_laser_perception/core/polyline_split.hpp"
 #include "tilt_laser_perception/io/pcd.hpp"
@@ -19,7 +20,7 @@ using namespace tilt_laser_perception;
 static void usage() {
   std::fprintf(stderr,
                "usage: segment_cloud CLOUD.pcd [--scan-lines rows|columns] [--out LABELS.pcd] [--zeta Z] [--dmin D]\n"
-               "                     [--noise auto|off|SIGMA] [--line-spacing-deg D]\n"
+               "                     [--noise auto|off|SIGMA] [--line-spacing-deg D] [--threads N]\n"
                "                     [--truth-field NAME [--truth-none V] [--overlap T]]\n"
                "  the cloud must be organized (HEIGHT > 1); its VIEWPOINT is the sensor's position;\n"
                "  PCD data ascii, binary or binary_compressed, fields in any order (PCL's reader)\n"
@@ -34,7 +35,10 @@ static void usage() {
                "  --line-spacing-deg D  group scan lines no closer than D degrees (default 0.5; 0: every line): of\n"
                "                      lines closer than that, every k-th is split and grouped, and a point of a\n"
                "                      line between joins the plane of the grouped point before or after it in its\n"
-               "                      column that it lies within the grouping's distance of\n");
+               "                      column that it lies within the grouping's distance of\n"
+               "  --threads N         1: one thread; 2 (default where the machine has two cores or more): a second\n"
+               "                      thread splits the lines while the first groups them, and takes half the lines\n"
+               "                      between (the same planes and labels)\n");
 }
 
 int main(int argc, char** argv) {
@@ -45,6 +49,7 @@ int main(int argc, char** argv) {
   double overlap = 0.8;
   std::string noise = "off";
   double spacing_deg = core::kOrganizedLineSpacing * 180.0 / M_PI;
+  int threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
@@ -60,13 +65,14 @@ int main(int argc, char** argv) {
     else if (a == "--overlap" && v) overlap = std::atof(argv[++i]);
     else if (a == "--noise" && v) noise = argv[++i];
     else if (a == "--line-spacing-deg" && v) spacing_deg = std::atof(argv[++i]);
+    else if (a == "--threads" && v) threads = std::atoi(argv[++i]);
     else if (a[0] != '-' && in.empty()) in = a;
     else { usage(); return a == "-h" || a == "--help" ? 0 : 2; }
   }
   char* noise_end = nullptr;
   const double noise_sigma = std::strtod(noise.c_str(), &noise_end);
   const bool noise_given = noise_end != noise.c_str() && *noise_end == '\0' && noise_sigma > 0.0;
-  if (in.empty() || !(spacing_deg >= 0.0) || !(overlap > 0.5 && overlap <= 1.0) || (noise != "auto" && noise != "off" && !noise_given)) {
+  if (in.empty() || !(spacing_deg >= 0.0) || threads < 1 || !(overlap > 0.5 && overlap <= 1.0) || (noise != "auto" && noise != "off" && !noise_given)) {
     usage();
     return 2;
   }
@@ -85,12 +91,14 @@ int main(int argc, char** argv) {
       k = core::scaleTolerancesToNoise(cn, split, grouping);
     }
     const int step = core::organizedLineStep(c.points, c.width, c.height, rows, c.viewpoint, spacing_deg * M_PI / 180.0);
-    core::segmentOrganized(c.points, c.width, c.height, rows, c.viewpoint, split, grouping, planes, labels, step);
+    core::segmentOrganized(c.points, c.width, c.height, rows, c.viewpoint, split, grouping, planes, labels, step,
+                           nullptr, threads);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::size_t labeled = 0;
     for (auto l : labels) labeled += l != 0;
-    std::printf("%s: %d x %d points, scan lines are %s; %zu planes, %zu points in planes; %.2f ms\n", in.c_str(),
-                c.width, c.height, rows ? "rows" : "columns", planes.size(), labeled, ms);
+    std::printf("%s: %d x %d points, scan lines are %s; %zu planes, %zu points in planes; %.2f ms (%d thread%s)\n",
+                in.c_str(), c.width, c.height, rows ? "rows" : "columns", planes.size(), labeled, ms, threads,
+                threads > 1 ? "s" : "");
     if (step > 1)
       std::printf("scan lines closer than %.2f deg: every %d. grouped, the points of the lines between joined to planes\n",
                   spacing_deg, step);

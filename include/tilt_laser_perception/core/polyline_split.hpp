@@ -42,11 +42,15 @@ struct OrganizedTimes {
 /// before or after it in its column that it lies within the grouping's
 /// distance threshold of (the nearer of two). The planes' fits and polygons
 /// are the grouped lines'; their `points` count every labelled point.
-/// `times`, when given, receives the stages' durations.
+/// `times`, when given, receives the stages' durations. `threads` 2 or more
+/// uses a second thread: it splits the lines while this one adds them to
+/// the grouping (then `times` holds each thread's time: the split's and the
+/// adding's, which overlap), and it takes half of the lines between. The
+/// planes and labels are the same as with one.
 void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
                       const Eigen::Vector3d& origin, const SplitParams& split, const GroupingParams& grouping,
                       std::vector<Plane>& planes, std::vector<std::uint32_t>& labels, int line_step = 1,
-                      OrganizedTimes* times = nullptr);
+                      OrganizedTimes* times = nullptr, int threads = 1);
 
 /// The lines grouped apart no closer than `line_spacing` [rad]: the step k
 /// for segmentOrganized, from the median angle between neighbouring points
