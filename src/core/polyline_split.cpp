@@ -149,6 +149,15 @@ int organizedLineStep(const std::vector<Eigen::Vector3f>& points, int width, int
 }
 
 namespace {
+/// Joins a thread when it goes out of scope: before the stack the thread
+/// uses unwinds, should the code beside it throw.
+struct Joiner {
+  std::thread& t;
+  ~Joiner() {
+    if (t.joinable()) t.join();
+  }
+};
+
 /// The points first..end-1 of a line between two grouped ones whose column
 /// neighbours there are of planes a and b: each joins the nearer of the two
 /// (a when as near; the plane of label 0 is infinitely far), if within the
@@ -202,30 +211,34 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
   ScanLineGrouper g(grouping);
   g.reset(origin);
   // Each line's points kept: finish() cuts the segments that cross a crease by them.
-  std::vector<std::vector<Eigen::Vector3f>> line_pts(n_grouped, std::vector<Eigen::Vector3f>(length));
+  std::vector<std::vector<Eigen::Vector3f>> line_pts(n_grouped);
   std::vector<std::vector<Segment3>> line_segs(n_grouped);
   const auto splitLine = [&](int j) {
+    line_pts[j].resize(length);
     for (int i = 0; i < length; ++i) line_pts[j][i] = points[index(grouped[j], i)];
     splitPolyline(line_pts[j], origin, split, j, line_segs[j]);
   };
-  // Two threads: one splits the lines, the other adds each as soon as it is split.
+  // Two threads: one splits the lines, then clears the labels while the
+  // finish runs; the other adds each line as soon as it is split.
   const bool two = threads >= 2 && n_grouped >= 4;
+  std::thread splitter;
+  std::atomic<int> ready{0};  // the lines split
+  const Joiner join_splitter{splitter};
   if (two) {
-    std::atomic<int> ready{0};
-    std::thread splitter([&] {
+    splitter = std::thread([&] {
       const auto t0 = Clock::now();
       for (int j = 0; j < n_grouped; ++j) {
         splitLine(j);
         ready.store(j + 1, std::memory_order_release);
       }
       tm.split = since(t0);
+      labels.assign(points.size(), 0);
     });
     const auto t1 = Clock::now();
     for (int j = 0; j < n_grouped; ++j) {
       while (ready.load(std::memory_order_acquire) <= j) std::this_thread::yield();
       g.addLine(line_segs[j]);
     }
-    splitter.join();
     tm.add = since(t1);
   } else {
     for (int j = 0; j < n_grouped; ++j) {
@@ -236,14 +249,15 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
       tm.split += std::chrono::duration<double>(t1 - t0).count();
       tm.add += since(t1);
     }
+    labels.assign(points.size(), 0);
   }
   const auto t2 = Clock::now();
   g.finish(planes, [&](int j) { return &line_pts[j]; });
   tm.finish = since(t2);
+  if (splitter.joinable()) splitter.join();
   // A line's i-th point at base(line) + i * stride.
   const std::size_t stride = rows ? 1 : static_cast<std::size_t>(width);
   const auto base = [&](int line) { return index(line, 0); };
-  labels.assign(points.size(), 0);
   const std::vector<Segment3>& segs = g.segments();
   for (const Plane& p : planes) {
     const auto label = static_cast<std::uint32_t>(p.id + 1);
@@ -316,6 +330,7 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
     const int half = (n_grouped - 1) / 2;
     std::vector<int> joined_first(max_label + 1, 0);
     std::thread first([&] { joinBetween(0, half, joined_first); });
+    const Joiner join_first{first};
     joinBetween(half, n_grouped - 1, joined);
     first.join();
     for (std::size_t i = 0; i < joined.size(); ++i) joined[i] += joined_first[i];
