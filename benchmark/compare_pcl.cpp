@@ -129,7 +129,8 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
   }
   const auto now = [] { return std::chrono::steady_clock::now(); };
   const auto secs = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
-  std::vector<double> ours_s, ours2_s, pcl_s, split_s, add_s, finish_s, between_s;
+  std::vector<double> ours_s, ours2_s, pcl_s, split_s, add_s, finish_s, between_s, split2_s, add2_s, finish2_s,
+      between2_s;
   std::vector<std::uint32_t> labels, labels2, pcl_labels(pts.size(), 0);
   bool same = true;
   std::size_t our_planes = 0, pcl_planes = 0;
@@ -153,8 +154,12 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
     const auto t2 = now();
     const int step2 = tlp::core::organizedLineStep(pts, n, n, true, head, spacing_deg * M_PI / 180.0);
     tlp::core::segmentOrganized(pts, n, n, true, head, tlp::core::SplitParams(), tlp::core::GroupingParams(), planes2,
-                                labels2, step2, nullptr, 2);
+                                labels2, step2, &times, 2);
     ours2_s.push_back(secs(t2, now()));
+    split2_s.push_back(times.split);
+    add2_s.push_back(times.add);
+    finish2_s.push_back(times.finish);
+    between2_s.push_back(times.between);
     same = same && labels2 == labels && planes2.size() == planes.size();
     std::vector<pcl::ModelCoefficients> coefficients;
     std::vector<pcl::PointIndices> inliers;
@@ -190,8 +195,10 @@ int organized(const std::string& scene_name, int n, std::uint64_t seed, const Pc
               step, spacing_deg, ours, our_planes, judge(labels).c_str(), medianMs(split_s), medianMs(add_s),
               medianMs(finish_s), medianMs(between_s));
   std::printf("segment_cloud, two threads (--threads 2, its default on two cores or more): %.2f ms, the same planes and "
-              "labels: %s\n",
-              ours2, same ? "yes" : "NO");
+              "labels: %s\n  timed apart: the split (second thread) %.2f ms, adding the rows (first, at the same "
+              "time) %.2f ms, finish %.2f ms, the rows between (both) %.2f ms\n",
+              ours2, same ? "yes" : "NO", medianMs(split2_s), medianMs(add2_s), medianMs(finish2_s),
+              medianMs(between2_s));
   std::printf("PCL (integral-image normals + OrganizedMultiPlaneSegmentation): %.2f ms, %zu planes, %s\n", theirs,
               pcl_planes, judge(pcl_labels).c_str());
   std::printf("ratio=%.3f (1/%.1f) one thread; ratio2=%.3f (1/%.1f) two threads (PCL: one)\n", ours / theirs,
