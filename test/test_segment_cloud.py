@@ -93,6 +93,6 @@ def test_two_threads_give_the_same_planes_and_labels(tmp_path):
             outs[t] = (rows, f.read())
     assert outs["1"][0] == outs["2"][0]
     assert outs["1"][1] == outs["2"][1]
-    for bad in ("0", "-2"):
+    for bad in ("0", "-2", "3"):
         r = run("segment_cloud", cloud, "--threads", bad)
         assert r.returncode == 2 and "usage" in r.stderr

@@ -20,7 +20,7 @@ using namespace tilt_laser_perception;
 static void usage() {
   std::fprintf(stderr,
                "usage: segment_cloud CLOUD.pcd [--scan-lines rows|columns] [--out LABELS.pcd] [--zeta Z] [--dmin D]\n"
-               "                     [--noise auto|off|SIGMA] [--line-spacing-deg D] [--threads N]\n"
+               "                     [--noise auto|off|SIGMA] [--line-spacing-deg D] [--threads 1|2]\n"
                "                     [--truth-field NAME [--truth-none V] [--overlap T]]\n"
                "  the cloud must be organized (HEIGHT > 1); its VIEWPOINT is the sensor's position;\n"
                "  PCD data ascii, binary or binary_compressed, fields in any order (PCL's reader)\n"
@@ -36,7 +36,7 @@ static void usage() {
                "                      lines closer than that, every k-th is split and grouped, and a point of a\n"
                "                      line between joins the plane of the grouped point before or after it in its\n"
                "                      column that it lies within the grouping's distance of\n"
-               "  --threads N         1: one thread; 2 (default where the machine has two cores or more): a second\n"
+               "  --threads 1|2       1: one thread; 2 (default where the machine has two cores or more): a second\n"
                "                      thread splits the lines while the first groups them, and takes half the lines\n"
                "                      between (the same planes and labels)\n");
 }
@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
   char* noise_end = nullptr;
   const double noise_sigma = std::strtod(noise.c_str(), &noise_end);
   const bool noise_given = noise_end != noise.c_str() && *noise_end == '\0' && noise_sigma > 0.0;
-  if (in.empty() || !(spacing_deg >= 0.0) || threads < 1 || !(overlap > 0.5 && overlap <= 1.0) || (noise != "auto" && noise != "off" && !noise_given)) {
+  if (in.empty() || !(spacing_deg >= 0.0) || (threads != 1 && threads != 2) || !(overlap > 0.5 && overlap <= 1.0) || (noise != "auto" && noise != "off" && !noise_given)) {
     usage();
     return 2;
   }
