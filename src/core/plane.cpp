@@ -46,16 +46,17 @@ PlaneFit fitPlane(const Moments3& m) {
   if (m.n < 1.0) return f;
   f.centroid = m.mean();
   const Eigen::Matrix3d cov = m.ss / m.n - f.centroid * f.centroid.transpose();
-  // Scaled to unit size for the closed form; a zero matrix has no normal.
+  // Scaled to unit size (Newton's tolerance is relative to it); a zero
+  // matrix has no normal.
   const double scale = cov.cwiseAbs().maxCoeff();
   Eigen::Vector3d ev = Eigen::Vector3d::Zero();
   bool done = false;
   if (scale > 0.0 && std::isfinite(scale)) {
     const Eigen::Matrix3d a = cov / scale;
     Eigen::Vector3d e;
-    // Its eigenvector is the cross product of two rows of a - e0 I, the
-    // largest of the three for accuracy.
     if (planeEigenvalues(a, e)) {
+      // The normal, the smallest eigenvalue's eigenvector: the cross product
+      // of two rows of a - e0 I, the largest of the three for accuracy.
       Eigen::Matrix3d k = a;
       k.diagonal().array() -= e(0);
       const Eigen::Vector3d c[3] = {k.row(0).cross(k.row(1)), k.row(0).cross(k.row(2)), k.row(1).cross(k.row(2))};
