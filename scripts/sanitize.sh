@@ -3,7 +3,7 @@
 # AddressSanitizer + UndefinedBehaviorSanitizer and runs them all, then the
 # emulator-driven driver tests (test_drivers: laser and servo threads against
 # the emulated UTM-30LX and MX-64) and segmentOrganized's two threads
-# (test_core's OrganizedLines) with ThreadSanitizer. Build directories:
+# (test_core's and test_sim's OrganizedLines) with ThreadSanitizer. Build directories:
 # build_asan/, build_tsan/. Exits non-zero on any report or failed test.
 # usage: sanitize.sh [asan|tsan|all]
 set -euo pipefail
@@ -23,8 +23,9 @@ if [ "$what" = all ] || [ "$what" = tsan ]; then
   echo "== ThreadSanitizer: the driver threads against the emulators"
   cmake -S "$here/ros_free" -B "$here/build_tsan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DTLP_SANITIZED=ON \
     -DCMAKE_CXX_FLAGS="-fsanitize=thread $common" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" >/dev/null
-  cmake --build "$here/build_tsan" --target test_drivers test_core -- -j2
+  cmake --build "$here/build_tsan" --target test_drivers test_core test_sim -- -j2
   TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" "$here/build_tsan/test_drivers"
-  echo "== ThreadSanitizer: segmentOrganized's second thread"
+  echo "== ThreadSanitizer: segmentOrganized's second thread (and the grouper's finish in two halves)"
   TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" "$here/build_tsan/test_core" --gtest_filter='OrganizedLines.*'
+  TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" "$here/build_tsan/test_sim" --gtest_filter='OrganizedLines.*'
 fi

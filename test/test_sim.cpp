@@ -648,3 +648,34 @@ TEST(OrganizedNoise, PointsWithoutARangeAreLeftOut) {
   EXPECT_EQ(core::scaleTolerancesToNoise(zero, sp, gp), 1.0);
   EXPECT_EQ(sp.zeta, core::SplitParams().zeta);
 }
+
+// segmentOrganized with a second thread (it splits while the first groups,
+// takes half the finish's crease votes and polygons, and half the lines
+// between) gives the same planes and labels as with one, on range images of
+// scenes large enough for the finish to be shared (several hundred segments),
+// rows or columns as the scan lines.
+TEST(OrganizedLines, TwoThreadsGiveTheSamePlanes) {
+  const Eigen::Vector3d head = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").axis_origin;
+  for (const char* name : {"stairs", "clutter", "ramp"}) {
+    const auto pts = sim::rangeImage(sim::loadScene(name), head, 300, 0.01, 2);
+    for (const bool rows : {true, false}) {
+      for (const int step : {1, 3}) {
+        std::vector<core::Plane> p1, p2;
+        std::vector<std::uint32_t> l1, l2;
+        core::segmentOrganized(pts, 300, 300, rows, head, core::SplitParams(), core::GroupingParams(), p1, l1, step);
+        core::segmentOrganized(pts, 300, 300, rows, head, core::SplitParams(), core::GroupingParams(), p2, l2, step,
+                               nullptr, 2);
+        const std::string what = std::string(name) + (rows ? " rows" : " columns") + " step " + std::to_string(step);
+        EXPECT_GE(p1.size(), 5u) << what;
+        ASSERT_EQ(p1.size(), p2.size()) << what;
+        EXPECT_TRUE(l1 == l2) << what;
+        for (std::size_t k = 0; k < p1.size(); ++k) {
+          EXPECT_EQ(p1[k].points, p2[k].points) << what;
+          EXPECT_EQ(p1[k].members, p2[k].members) << what;
+          EXPECT_EQ(p1[k].fit.normal, p2[k].fit.normal) << what;
+          EXPECT_EQ(p1[k].boundary.size(), p2[k].boundary.size()) << what;
+        }
+      }
+    }
+  }
+}

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <thread>
 
 namespace tilt_laser_perception {
 namespace core {
@@ -93,6 +94,25 @@ bool near(const Segment3& a, const Segment3& b, double limit) {
   if (close(a.start, b.start) || close(a.end, b.end) || close(a.start, b.end) || close(a.end, b.start)) return true;
   const Eigen::Vector3d ca = a.moments.mean(), cb = b.moments.mean();
   return close(ca, b.start) || close(ca, b.end) || close(a.start, cb) || close(a.end, cb) || close(ca, cb);
+}
+
+/// f(begin, end, half) over [0, n): in two halves, the second on a thread
+/// of its own, when `two`; else at once (half 0).
+template <class F>
+void inHalves(std::size_t n, bool two, F&& f) {
+  if (!two) {
+    f(std::size_t{0}, n, 0);
+    return;
+  }
+  const std::size_t mid = n / 2;
+  std::thread second([&] { f(mid, n, 1); });
+  try {
+    f(std::size_t{0}, mid, 0);
+  } catch (...) {
+    second.join();
+    throw;
+  }
+  second.join();
 }
 
 /// A segment of pts[first..last] (NaN points skipped); rangeOf(i) is point i's range.
@@ -764,17 +784,16 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   }
   if (points) cutAtCreases(cand, points);
 
-  seg_plane_.assign(segs_.size(), -1);
-  for (const Region& r : regions_) {
-    if (r.dead || static_cast<int>(r.members.size()) < p_.min_segments || r.last_line == r.first_line) continue;
-    Plane p;
+  // A region's plane, false when it makes none.
+  const auto planeOf = [&](const Region& r, Plane& p) {
+    if (r.dead || static_cast<int>(r.members.size()) < p_.min_segments || r.last_line == r.first_line) return false;
     p.fit = fitPlane(r.moments);
     // Its own points must fix its normal, as a region's must before a
     // segment is judged by its plane (planar()): two lines a centimetre apart
     // fit planes tilted by tens of degrees within their noise (a tread seen
     // by two lines from a step), and a strip that many lines cross at one
     // place (room_240's table edge under the laser) is no surface.
-    if (spreadAcross(r) <= kPlanarSpread) continue;
+    if (spreadAcross(r) <= kPlanarSpread) return false;
     if (p.fit.normal.dot(sensor_ - p.fit.centroid) < 0.0) {
       p.fit.normal = -p.fit.normal;
       p.fit.offset = -p.fit.offset;
@@ -783,10 +802,23 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     p.segments = static_cast<int>(r.members.size());
     p.points = static_cast<int>(r.moments.n);
     buildPolygon(r, p);
-    if (p.area < p_.min_area) continue;
-    p.id = static_cast<int>(planes.size());
-    for (int m : p.members) seg_plane_[m] = p.id;
-    planes.push_back(std::move(p));
+    return p.area >= p_.min_area;
+  };
+  // The planes, numbered in the regions' order; with setThreads(2) the two
+  // halves of the regions on two threads.
+  std::vector<Plane> second_half;
+  inHalves(regions_.size(), threads_ >= 2 && segs_.size() >= kMinSegmentsToShare,
+           [&](std::size_t b, std::size_t e, int half) {
+             for (std::size_t ri = b; ri < e; ++ri) {
+               Plane p;
+               if (planeOf(regions_[ri], p)) (half ? second_half : planes).push_back(std::move(p));
+             }
+           });
+  for (Plane& p : second_half) planes.push_back(std::move(p));
+  seg_plane_.assign(segs_.size(), -1);
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    planes[k].id = static_cast<int>(k);
+    for (int m : planes[k].members) seg_plane_[m] = planes[k].id;
   }
   if (p_.crease_reach > p_.crease_margin) closeCreases(planes, p_.crease_reach, p_.crease_margin, p_.merge_angle_deg);
 }
@@ -896,8 +928,6 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   // Others by their first line: as the segments go line by line, those
   // whose lines reach the segment's are kept in `active`.
   std::sort(others.begin(), others.end(), [](const Other& a, const Other& b) { return a.line_lo < b.line_lo; });
-  std::vector<Other> active;
-  std::size_t next_other = 0;
   // The lone segments that may seed a plane with a run of a neighbour's (in index order, so by line).
   std::vector<int> lone;
   for (std::size_t i = 0; i < segs_.size(); ++i) {
@@ -905,181 +935,193 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     if (rt >= 0 && !regions_[rt].dead && regions_[rt].members.size() == 1 && segs_[i].moments.n >= 2 * p_.min_points)
       lone.push_back(static_cast<int>(i));
   }
-  for (std::size_t si = 0; si < segs_.size(); ++si) {
-    const int ri = seg_region_[si];
-    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 2) continue;
-    const Segment3& s = segs_[si];
-    if (s.moments.n < 2 * p_.min_points || !s.origin.allFinite()) continue;
-    const Region& own = regions_[ri];
-    const std::vector<Eigen::Vector3f>* pts = nullptr;
-    PlaneFit fa;  // its own plane, without it if the rest has two lines or more
-    const double thr = p_.threshold(s.range);
-    Cut best{-1, 0, 0, -1};
-    PlaneFit best_fit;
-    double best_votes = kMinCutVotes - 0.5;
-    const auto loadPoints = [&] {
-      if (!pts) {
-        pts = points(s.line);
-        if (!pts || static_cast<int>(pts->size()) <= s.last) return false;
-        Moments3 rest = own.moments;
-        rest -= s.moments;
-        fa = own.lines > 2 ? fitPlane(rest) : own.fit;
-      }
-      return true;
-    };
-    // Votes s's beams lo..hi between its own plane and `of` (the plane of
-    // region `to`, whose members near s sum to near_other); a run needs
-    // min_votes net. False when the line's points are missing.
-    const auto vote = [&](const PlaneFit& of, const Moments3& near_other, int lo, int hi, int to, double min_votes) {
-      // The crease between the planes: convex (a box's edge) when each
-      // plane's members near it lie behind the other plane, as seen from the
-      // sensor; concave (a riser's foot) when in front. Not clear by the
-      // tolerance: no crease to cut at.
-      // Its own plane's other members on the lines near it, on the beams
-      // lo..hi beside the other plane only: a floor goes on beside a ramp,
-      // and there it lies behind the ramp's plane (by all its members near,
-      // the ramp's foot was no crease or a convex one). A member's part on
-      // those beams: the point of its line at their middle, weighed by their
-      // share of its points.
-      double near_n = 0.0;
-      Eigen::Vector3d near_sum = Eigen::Vector3d::Zero();
-      const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
-      for (auto mi = a0; mi != a1; ++mi) {
-        const int b0 = std::max(spans_[*mi].first, lo), b1 = std::min(spans_[*mi].last, hi);
-        if (*mi == static_cast<int>(si) || b1 < b0) continue;
-        const Segment3& m = segs_[*mi];
-        const double span = std::max(1, m.last - m.first);
-        const double n = m.moments.n * (b1 - b0 + 1) / (m.last - m.first + 1);
-        near_n += n;
-        near_sum += n * (m.start + (m.end - m.start) * ((0.5 * (b0 + b1) - m.first) / span));
-      }
-      if (near_n < p_.min_points) return true;
-      const auto inFront = [&](const PlaneFit& f, const Eigen::Vector3d& x) {
-        const double d = f.normal.dot(x) - f.offset;
-        return f.normal.dot(s.origin) > f.offset ? d : -d;  // normal turned to the sensor
+  // The segments [s0, s1) voted on, their cuts into `out`. The planes
+  // active at a segment are those whose lines reach its line, in the
+  // candidates' order, wherever the pass starts: with setThreads(2) the
+  // two halves of the segments run on two threads, the same cuts.
+  const auto voteRange = [&](std::size_t s0, std::size_t s1, std::vector<Cut>& out) {
+    std::vector<Other> active;
+    std::size_t next_other = 0;
+    for (std::size_t si = s0; si < s1; ++si) {
+      const int ri = seg_region_[si];
+      if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 2) continue;
+      const Segment3& s = segs_[si];
+      if (s.moments.n < 2 * p_.min_points || !s.origin.allFinite()) continue;
+      const Region& own = regions_[ri];
+      const std::vector<Eigen::Vector3f>* pts = nullptr;
+      PlaneFit fa;  // its own plane, without it if the rest has two lines or more
+      const double thr = p_.threshold(s.range);
+      Cut best{-1, 0, 0, -1};
+      PlaneFit best_fit;
+      double best_votes = kMinCutVotes - 0.5;
+      const auto loadPoints = [&] {
+        if (!pts) {
+          pts = points(s.line);
+          if (!pts || static_cast<int>(pts->size()) <= s.last) return false;
+          Moments3 rest = own.moments;
+          rest -= s.moments;
+          fa = own.lines > 2 ? fitPlane(rest) : own.fit;
+        }
+        return true;
       };
-      const double side = inFront(of, near_sum / near_n) + inFront(own.fit, near_other.mean());
-      const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
-      if (std::abs(side) < tol) return true;
-      const bool convex = side < 0.0;
-      if (!loadPoints()) return false;
-      // Each beam's ray meets both planes; the surface is the farther of the
-      // two at a convex crease, the nearer at a concave one. The range noise
-      // of a point does not move its ray: near the crease the ray tells the
-      // planes apart where the points' distances cannot, unless the planes
-      // meet the ray within kCreaseMargin of each other (a line right on the
-      // crease, within the planes' own errors: it stays). A beam votes for
-      // the other plane if its ray meets that one clearly first (last) and
-      // its point lies within the threshold of it, against if clearly not;
-      // the run with the most votes net.
-      double run = 0.0;
-      int run_first = lo;
-      const double need = std::max(best_votes, min_votes - 0.5);
-      const double ha = fa.offset - fa.normal.dot(s.origin), hb = of.offset - of.normal.dot(s.origin);
-      for (int i = lo; i <= hi; ++i) {
-        const Eigen::Vector3f& q = (*pts)[i];
-        if (!std::isfinite(q.x())) continue;
-        const Eigen::Vector3d ray = q.cast<double>() - s.origin;
-        const double r = ray.norm();
-        const double ta = ha / fa.normal.dot(ray), tb = hb / of.normal.dot(ray);  // along the ray, 1 at the point
-        double v = -1.0;
-        if (std::isfinite(ta) && std::isfinite(tb) && ta > 0.0 && tb > 0.0 && std::abs(1.0 - tb) * r <= thr) {
-          const double lead = (convex ? tb - ta : ta - tb) * r;  // [m], > 0: the other plane's
-          v = lead > kCreaseMargin ? 1.0 : lead < -kCreaseMargin ? -1.0 : -0.25;
+      // Votes s's beams lo..hi between its own plane and `of` (the plane of
+      // region `to`, whose members near s sum to near_other); a run needs
+      // min_votes net. False when the line's points are missing.
+      const auto vote = [&](const PlaneFit& of, const Moments3& near_other, int lo, int hi, int to, double min_votes) {
+        // The crease between the planes: convex (a box's edge) when each
+        // plane's members near it lie behind the other plane, as seen from the
+        // sensor; concave (a riser's foot) when in front. Not clear by the
+        // tolerance: no crease to cut at.
+        // Its own plane's other members on the lines near it, on the beams
+        // lo..hi beside the other plane only: a floor goes on beside a ramp,
+        // and there it lies behind the ramp's plane (by all its members near,
+        // the ramp's foot was no crease or a convex one). A member's part on
+        // those beams: the point of its line at their middle, weighed by their
+        // share of its points.
+        double near_n = 0.0;
+        Eigen::Vector3d near_sum = Eigen::Vector3d::Zero();
+        const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+        for (auto mi = a0; mi != a1; ++mi) {
+          const int b0 = std::max(spans_[*mi].first, lo), b1 = std::min(spans_[*mi].last, hi);
+          if (*mi == static_cast<int>(si) || b1 < b0) continue;
+          const Segment3& m = segs_[*mi];
+          const double span = std::max(1, m.last - m.first);
+          const double n = m.moments.n * (b1 - b0 + 1) / (m.last - m.first + 1);
+          near_n += n;
+          near_sum += n * (m.start + (m.end - m.start) * ((0.5 * (b0 + b1) - m.first) / span));
         }
-        if (run <= 0.0) {
-          run = 0.0;
-          run_first = i;
+        if (near_n < p_.min_points) return true;
+        const auto inFront = [&](const PlaneFit& f, const Eigen::Vector3d& x) {
+          const double d = f.normal.dot(x) - f.offset;
+          return f.normal.dot(s.origin) > f.offset ? d : -d;  // normal turned to the sensor
+        };
+        const double side = inFront(of, near_sum / near_n) + inFront(own.fit, near_other.mean());
+        const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+        if (std::abs(side) < tol) return true;
+        const bool convex = side < 0.0;
+        if (!loadPoints()) return false;
+        // Each beam's ray meets both planes; the surface is the farther of the
+        // two at a convex crease, the nearer at a concave one. The range noise
+        // of a point does not move its ray: near the crease the ray tells the
+        // planes apart where the points' distances cannot, unless the planes
+        // meet the ray within kCreaseMargin of each other (a line right on the
+        // crease, within the planes' own errors: it stays). A beam votes for
+        // the other plane if its ray meets that one clearly first (last) and
+        // its point lies within the threshold of it, against if clearly not;
+        // the run with the most votes net.
+        double run = 0.0;
+        int run_first = lo;
+        const double need = std::max(best_votes, min_votes - 0.5);
+        const double ha = fa.offset - fa.normal.dot(s.origin), hb = of.offset - of.normal.dot(s.origin);
+        for (int i = lo; i <= hi; ++i) {
+          const Eigen::Vector3f& q = (*pts)[i];
+          if (!std::isfinite(q.x())) continue;
+          const Eigen::Vector3d ray = q.cast<double>() - s.origin;
+          const double r = ray.norm();
+          const double ta = ha / fa.normal.dot(ray), tb = hb / of.normal.dot(ray);  // along the ray, 1 at the point
+          double v = -1.0;
+          if (std::isfinite(ta) && std::isfinite(tb) && ta > 0.0 && tb > 0.0 && std::abs(1.0 - tb) * r <= thr) {
+            const double lead = (convex ? tb - ta : ta - tb) * r;  // [m], > 0: the other plane's
+            v = lead > kCreaseMargin ? 1.0 : lead < -kCreaseMargin ? -1.0 : -0.25;
+          }
+          if (run <= 0.0) {
+            run = 0.0;
+            run_first = i;
+          }
+          run += v;
+          if (run > need && run > best_votes) {
+            best = {static_cast<int>(si), run_first, i, to};
+            best_fit = of;
+            best_votes = run;
+          }
         }
-        run += v;
-        if (run > need && run > best_votes) {
-          best = {static_cast<int>(si), run_first, i, to};
-          best_fit = of;
-          best_votes = run;
+        return true;
+      };
+      if (next_other < others.size() && others[next_other].line_lo <= s.line) {
+        while (next_other < others.size() && others[next_other].line_lo <= s.line) active.push_back(others[next_other++]);
+        std::sort(active.begin(), active.end(), [](const Other& a, const Other& b) { return a.order < b.order; });
+      }
+      active.erase(std::remove_if(active.begin(), active.end(), [&](const Other& x) { return x.line_hi < s.line; }),
+                   active.end());
+      bool have_points = true;
+      for (const Other& x : active) {
+        if (x.region == ri || s.last < x.beam_lo || s.first > x.beam_hi) continue;
+        const int rj = x.region;
+        const Region& o = regions_[rj];
+        // A straight segment whose both ends lie on one side of that plane,
+        // well beyond the threshold, has no point near it.
+        const double d0 = o.fit.normal.dot(s.start) - o.fit.offset, d1 = o.fit.normal.dot(s.end) - o.fit.offset;
+        if (d0 * d1 > 0.0 && std::min(std::abs(d0), std::abs(d1)) > 2.0 * thr) continue;
+        // Only beside that plane's members on the lines near (a plane goes on
+        // forever; the surface does not).
+        int lo = s.last + 1, hi = s.first - 1;
+        const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+        for (auto mi = m0; mi != m1; ++mi) {
+          const Span& m = spans_[*mi];
+          if (m.first > s.last + p_.beam_slack || s.first > m.last + p_.beam_slack) continue;
+          lo = std::min(lo, m.first);
+          hi = std::max(hi, m.last);
+        }
+        lo = std::max(lo, s.first);
+        hi = std::min(hi, s.last);
+        if (hi - lo + 1 < p_.min_points) continue;
+        Moments3 near_other;
+        for (auto mi = m0; mi != m1; ++mi) near_other += segs_[*mi].moments;
+        if (!(have_points = vote(o.fit, near_other, lo, hi, rj, kMinCutVotes))) break;
+      }
+      if (!have_points) continue;
+      // A lone segment of the next or the line before, and this segment's
+      // beams beside it, may span a plane of their own: a riser crossed by two
+      // lines, the lower along its foot, which the floor's segment took (too
+      // gentle a bend for the split). That plane is tried as the other one; a
+      // run beside kMinLoneCover of the lone segment or more seeds it.
+      for (int dl : {-1, 1}) {
+        const int t_end = firstSegmentOf(s.line + dl + 1);
+        for (auto it = std::lower_bound(lone.begin(), lone.end(), firstSegmentOf(s.line + dl));
+             it != lone.end() && *it < t_end; ++it) {
+          const int ti = *it;
+          const Segment3& t = segs_[ti];
+          const int rt = seg_region_[ti];
+          // On this segment's plane it would span that plane again.
+          if (std::abs(own.fit.normal.dot(t.moments.mean()) - own.fit.offset) <=
+              std::max(p_.centroid_min, p_.centroid_ratio * t.range))
+            continue;
+          const int lo = std::max(s.first, t.first), hi = std::min(s.last, t.last);
+          const double min_run = std::max<double>(p_.min_points, kMinLoneCover * (t.last - t.first + 1));
+          if (hi - lo + 1 < min_run || !loadPoints()) continue;
+          Moments3 m = t.moments;
+          for (int i = lo; i <= hi; ++i)
+            if (std::isfinite((*pts)[i].x())) m.add((*pts)[i].cast<double>());
+          const PlaneFit h = fitPlane(m);
+          if (h.rms > 0.5 * p_.threshold(t.range) || h.spread(1) <= kPlanarSpread ||
+              std::abs(h.normal.dot(own.fit.normal)) > std::cos(p_.merge_angle_deg * kDeg))
+            continue;
+          vote(h, t.moments, lo, hi, rt, min_run);
         }
       }
-      return true;
-    };
-    if (next_other < others.size() && others[next_other].line_lo <= s.line) {
-      while (next_other < others.size() && others[next_other].line_lo <= s.line) active.push_back(others[next_other++]);
-      std::sort(active.begin(), active.end(), [](const Other& a, const Other& b) { return a.order < b.order; });
-    }
-    active.erase(std::remove_if(active.begin(), active.end(), [&](const Other& x) { return x.line_hi < s.line; }),
-                 active.end());
-    bool have_points = true;
-    for (const Other& x : active) {
-      if (x.region == ri || s.last < x.beam_lo || s.first > x.beam_hi) continue;
-      const int rj = x.region;
-      const Region& o = regions_[rj];
-      // A straight segment whose both ends lie on one side of that plane,
-      // well beyond the threshold, has no point near it.
-      const double d0 = o.fit.normal.dot(s.start) - o.fit.offset, d1 = o.fit.normal.dot(s.end) - o.fit.offset;
-      if (d0 * d1 > 0.0 && std::min(std::abs(d0), std::abs(d1)) > 2.0 * thr) continue;
-      // Only beside that plane's members on the lines near (a plane goes on
-      // forever; the surface does not).
-      int lo = s.last + 1, hi = s.first - 1;
-      const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
-      for (auto mi = m0; mi != m1; ++mi) {
-        const Span& m = spans_[*mi];
-        if (m.first > s.last + p_.beam_slack || s.first > m.last + p_.beam_slack) continue;
-        lo = std::min(lo, m.first);
-        hi = std::max(hi, m.last);
+      if (best.seg < 0) continue;
+      // The rest stays a segment of its own plane; too short for one, it goes
+      // along (the whole segment belongs to the other plane: a tread's first
+      // line that the riser below kept).
+      int rest_n = 0;
+      for (int i = s.first; i <= s.last; ++i)
+        rest_n += (i < best.first || i > best.last) && std::isfinite((*pts)[i].x());
+      if (rest_n < p_.min_points) {
+        best.first = s.first;
+        best.last = s.last;
       }
-      lo = std::max(lo, s.first);
-      hi = std::min(hi, s.last);
-      if (hi - lo + 1 < p_.min_points) continue;
-      Moments3 near_other;
-      for (auto mi = m0; mi != m1; ++mi) near_other += segs_[*mi].moments;
-      if (!(have_points = vote(o.fit, near_other, lo, hi, rj, kMinCutVotes))) break;
+      Segment3 piece;
+      if (!pieceOf(s, *pts, best.first, best.last, piece)) continue;
+      if (std::abs(best_fit.normal.dot(piece.moments.mean()) - best_fit.offset) >
+          std::max(p_.centroid_min, p_.centroid_ratio * s.range))
+        continue;
+      out.push_back(best);
     }
-    if (!have_points) continue;
-    // A lone segment of the next or the line before, and this segment's
-    // beams beside it, may span a plane of their own: a riser crossed by two
-    // lines, the lower along its foot, which the floor's segment took (too
-    // gentle a bend for the split). That plane is tried as the other one; a
-    // run beside kMinLoneCover of the lone segment or more seeds it.
-    for (int dl : {-1, 1}) {
-      const int t_end = firstSegmentOf(s.line + dl + 1);
-      for (auto it = std::lower_bound(lone.begin(), lone.end(), firstSegmentOf(s.line + dl));
-           it != lone.end() && *it < t_end; ++it) {
-        const int ti = *it;
-        const Segment3& t = segs_[ti];
-        const int rt = seg_region_[ti];
-        // On this segment's plane it would span that plane again.
-        if (std::abs(own.fit.normal.dot(t.moments.mean()) - own.fit.offset) <=
-            std::max(p_.centroid_min, p_.centroid_ratio * t.range))
-          continue;
-        const int lo = std::max(s.first, t.first), hi = std::min(s.last, t.last);
-        const double min_run = std::max<double>(p_.min_points, kMinLoneCover * (t.last - t.first + 1));
-        if (hi - lo + 1 < min_run || !loadPoints()) continue;
-        Moments3 m = t.moments;
-        for (int i = lo; i <= hi; ++i)
-          if (std::isfinite((*pts)[i].x())) m.add((*pts)[i].cast<double>());
-        const PlaneFit h = fitPlane(m);
-        if (h.rms > 0.5 * p_.threshold(t.range) || h.spread(1) <= kPlanarSpread ||
-            std::abs(h.normal.dot(own.fit.normal)) > std::cos(p_.merge_angle_deg * kDeg))
-          continue;
-        vote(h, t.moments, lo, hi, rt, min_run);
-      }
-    }
-    if (best.seg < 0) continue;
-    // The rest stays a segment of its own plane; too short for one, it goes
-    // along (the whole segment belongs to the other plane: a tread's first
-    // line that the riser below kept).
-    int rest_n = 0;
-    for (int i = s.first; i <= s.last; ++i)
-      rest_n += (i < best.first || i > best.last) && std::isfinite((*pts)[i].x());
-    if (rest_n < p_.min_points) {
-      best.first = s.first;
-      best.last = s.last;
-    }
-    Segment3 piece;
-    if (!pieceOf(s, *pts, best.first, best.last, piece)) continue;
-    if (std::abs(best_fit.normal.dot(piece.moments.mean()) - best_fit.offset) >
-        std::max(p_.centroid_min, p_.centroid_ratio * s.range))
-      continue;
-    cuts.push_back(best);
-  }
+  };
+  std::vector<Cut> second_half;
+  inHalves(segs_.size(), threads_ >= 2 && segs_.size() >= kMinSegmentsToShare,
+           [&](std::size_t b, std::size_t e, int half) { voteRange(b, e, half ? second_half : cuts); });
+  cuts.insert(cuts.end(), second_half.begin(), second_half.end());
   if (cuts.empty()) return;
 
   // The segments again, each cut one in its pieces (in beam order); the

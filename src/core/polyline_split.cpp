@@ -210,6 +210,7 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
   const int n_grouped = static_cast<int>(grouped.size());
   ScanLineGrouper g(grouping);
   g.reset(origin);
+  g.setThreads(threads >= 2 ? 2 : 1);
   // Each line's points kept: finish() cuts the segments that cross a crease by them.
   std::vector<std::vector<Eigen::Vector3f>> line_pts(n_grouped);
   std::vector<std::vector<Segment3>> line_segs(n_grouped);

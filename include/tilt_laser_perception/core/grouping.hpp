@@ -102,6 +102,12 @@ class ScanLineGrouper {
   /// (segments() then holds the pieces).
   void finish(std::vector<Plane>& planes, const LinePoints& points = nullptr);
 
+  /// Threads finish() may use: 1 (the default), or 2: the crease votes and
+  /// the planes' polygons in two halves on two threads, when there are
+  /// kMinSegmentsToShare segments or more; the same planes either way.
+  void setThreads(int n) { threads_ = n; }
+  static constexpr std::size_t kMinSegmentsToShare = 200;
+
   const std::vector<Segment3>& segments() const { return segs_; }
   /// After finish(): the plane of each segment, -1 for none.
   const std::vector<int>& segmentPlane() const { return seg_plane_; }
@@ -183,6 +189,7 @@ class ScanLineGrouper {
   void buildPolygon(const Region& r, Plane& out) const;
 
   GroupingParams p_;
+  int threads_ = 1;  // setThreads()
   Eigen::Vector3d sensor_ = Eigen::Vector3d::Zero();
   std::vector<Segment3> segs_;
   std::vector<int> line_start_;  // per line: the index of its first segment (or of the next line's)

@@ -45,7 +45,8 @@ struct OrganizedTimes {
 /// `times`, when given, receives the stages' durations. `threads` 2 or more
 /// uses a second thread: it splits the lines while this one adds them to
 /// the grouping (then `times` holds each thread's time: the split's and the
-/// adding's, which overlap), and it takes half of the lines between. The
+/// adding's, which overlap), it takes half of the finish's crease votes and
+/// polygons (ScanLineGrouper::setThreads) and half of the lines between. The
 /// planes and labels are the same as with one.
 void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
                       const Eigen::Vector3d& origin, const SplitParams& split, const GroupingParams& grouping,
