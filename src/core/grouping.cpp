@@ -784,9 +784,12 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   }
   if (points) cutAtCreases(cand, points);
 
+  // Whether a region may make a plane at all (most are single segments).
+  const auto mayBePlane = [&](const Region& r) {
+    return !r.dead && static_cast<int>(r.members.size()) >= p_.min_segments && r.last_line != r.first_line;
+  };
   // A region's plane, false when it makes none.
   const auto planeOf = [&](const Region& r, Plane& p) {
-    if (r.dead || static_cast<int>(r.members.size()) < p_.min_segments || r.last_line == r.first_line) return false;
     p.fit = fitPlane(r.moments);
     // Its own points must fix its normal, as a region's must before a
     // segment is judged by its plane (planar()): two lines a centimetre apart
@@ -810,6 +813,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   inHalves(regions_.size(), threads_ >= 2 && segs_.size() >= kMinSegmentsToShare,
            [&](std::size_t b, std::size_t e, int half) {
              for (std::size_t ri = b; ri < e; ++ri) {
+               if (!mayBePlane(regions_[ri])) continue;
                Plane p;
                if (planeOf(regions_[ri], p)) (half ? second_half : planes).push_back(std::move(p));
              }
