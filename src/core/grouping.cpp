@@ -1,10 +1,10 @@
 #include "tilt_laser_perception/core/grouping.hpp"
+#include "tilt_laser_perception/core/in_halves.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
-#include <thread>
 
 namespace tilt_laser_perception {
 namespace core {
@@ -94,25 +94,6 @@ bool near(const Segment3& a, const Segment3& b, double limit) {
   if (close(a.start, b.start) || close(a.end, b.end) || close(a.start, b.end) || close(a.end, b.start)) return true;
   const Eigen::Vector3d ca = a.moments.mean(), cb = b.moments.mean();
   return close(ca, b.start) || close(ca, b.end) || close(a.start, cb) || close(a.end, cb) || close(ca, cb);
-}
-
-/// f(begin, end, half) over [0, n): in two halves, the second on a thread
-/// of its own, when `two`; else at once (half 0).
-template <class F>
-void inHalves(std::size_t n, bool two, F&& f) {
-  if (!two) {
-    f(std::size_t{0}, n, 0);
-    return;
-  }
-  const std::size_t mid = n / 2;
-  std::thread second([&] { f(mid, n, 1); });
-  try {
-    f(std::size_t{0}, mid, 0);
-  } catch (...) {
-    second.join();
-    throw;
-  }
-  second.join();
 }
 
 /// A segment of pts[first..last] (NaN points skipped); rangeOf(i) is point i's range.
@@ -810,7 +791,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   // The planes, numbered in the regions' order; with setThreads(2) the two
   // halves of the regions on two threads.
   std::vector<Plane> second_half;
-  inHalves(regions_.size(), threads_ >= 2 && segs_.size() >= kMinSegmentsToShare,
+  inHalves(regions_.size(), shareFinish(),
            [&](std::size_t b, std::size_t e, int half) {
              for (std::size_t ri = b; ri < e; ++ri) {
                if (!mayBePlane(regions_[ri])) continue;
@@ -1123,7 +1104,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     }
   };
   std::vector<Cut> second_half;
-  inHalves(segs_.size(), threads_ >= 2 && segs_.size() >= kMinSegmentsToShare,
+  inHalves(segs_.size(), shareFinish(),
            [&](std::size_t b, std::size_t e, int half) { voteRange(b, e, half ? second_half : cuts); });
   cuts.insert(cuts.end(), second_half.begin(), second_half.end());
   if (cuts.empty()) return;

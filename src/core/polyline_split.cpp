@@ -1,4 +1,5 @@
 #include "tilt_laser_perception/core/polyline_split.hpp"
+#include "tilt_laser_perception/core/in_halves.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -150,7 +151,8 @@ int organizedLineStep(const std::vector<Eigen::Vector3f>& points, int width, int
 
 namespace {
 /// Joins a thread when it goes out of scope: before the stack the thread
-/// uses unwinds, should the code beside it throw.
+/// uses unwinds, should the code beside it throw (segmentOrganized's
+/// splitter, which runs beside the grouping).
 struct Joiner {
   std::thread& t;
   ~Joiner() {
@@ -325,19 +327,12 @@ void segmentOrganized(const std::vector<Eigen::Vector3f>& points, int width, int
       }
     }
   };
-  std::vector<int> joined(max_label + 1, 0);
-  if (two) {
-    // Each thread its half of the lines: they write apart.
-    const int half = (n_grouped - 1) / 2;
-    std::vector<int> joined_first(max_label + 1, 0);
-    std::thread first([&] { joinBetween(0, half, joined_first); });
-    const Joiner join_first{first};
-    joinBetween(half, n_grouped - 1, joined);
-    first.join();
-    for (std::size_t i = 0; i < joined.size(); ++i) joined[i] += joined_first[i];
-  } else {
-    joinBetween(0, n_grouped - 1, joined);
-  }
+  // With two threads each its half of the lines: they write apart.
+  std::vector<int> joined(max_label + 1, 0), joined_second(max_label + 1, 0);
+  inHalves(static_cast<std::size_t>(n_grouped - 1), two, [&](std::size_t b, std::size_t e, int half) {
+    joinBetween(static_cast<int>(b), static_cast<int>(e), half ? joined_second : joined);
+  });
+  for (std::size_t i = 0; i < joined.size(); ++i) joined[i] += joined_second[i];
   for (Plane& p : planes) p.points += joined[p.id + 1];
   tm.between = since(t3);
 }

@@ -188,6 +188,9 @@ class ScanLineGrouper {
   void cutAtCreases(const std::vector<int>& cand, const LinePoints& points);
   void buildPolygon(const Region& r, Plane& out) const;
 
+  /// Whether finish() shares its work with a second thread (setThreads()).
+  bool shareFinish() const { return threads_ >= 2 && segs_.size() >= kMinSegmentsToShare; }
+
   GroupingParams p_;
   int threads_ = 1;  // setThreads()
   Eigen::Vector3d sensor_ = Eigen::Vector3d::Zero();
