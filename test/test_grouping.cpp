@@ -803,6 +803,63 @@ TEST(Grouping, ALineOverARampsFootIsCutWhereItsRaysMeetTheRampThoughTheFloorGoes
   }
 }
 
+TEST(Grouping, PiecesStraddlingAStepBelowTheThresholdMakeNoPlaneOfTheirOwn) {
+  // A slab 4 cm high for y >= -0.2 on a floor, seen from kStepSensor; lines
+  // aimed at x = 1.0 .. 2.4, beams y = -0.6 .. 0.6. At the slab's edge (its
+  // side faces away from the sensor) the footprint blends the slab's edge
+  // with the floor beyond over four beams, each range between the two along
+  // its own ray. The split cannot see a step below its threshold: each line
+  // gives a floor piece, a piece of 9 points across the edge (the last floor
+  // points, the blends, the first slab points) and a slab piece. The pieces
+  // across the edge line up from line to line, a strip tilted 30 degrees
+  // (a plane of its own before). Floor and slab lie within the distance
+  // threshold of one plane, and so does every point of the strip: it holds
+  // nothing that plane does not, and makes no plane.
+  const Eigen::Vector3d o = kStepSensor;
+  constexpr double h = 0.04;
+  StepScan scan;
+  for (int l = 0; l < 29; ++l) {
+    const double aim = 1.0 + 0.05 * l;
+    std::vector<Eigen::Vector3f> pts;
+    std::vector<float> ranges;
+    int first_slab = -1;
+    for (int b = 0; b <= 120; ++b) {
+      const Eigen::Vector3d d(aim, -0.6 + 0.01 * b, -o.z());
+      const Eigen::Vector3d top = o + d * ((o.z() - h) / o.z());  // the ray at the slab's height
+      const bool slab = top.y() >= -0.2;
+      if (slab && first_slab < 0) first_slab = b;
+      const Eigen::Vector3d p = slab ? top : Eigen::Vector3d(o + d);
+      pts.push_back(p.cast<float>());
+      ranges.push_back(static_cast<float>((p - o).norm()));
+    }
+    // The footprint's blend: beams first_slab - 2 .. first_slab + 1 between the floor and the slab.
+    for (int b = first_slab - 2, k = 1; b <= first_slab + 1; ++b, ++k) {
+      const Eigen::Vector3d d = (pts[b].cast<double>() - o).normalized();
+      const double far = o.z() / -d.z(), near = (o.z() - h) / -d.z();
+      const double r = far + (near - far) * k / 5.0;
+      pts[b] = (o + r * d).cast<float>();
+      ranges[b] = static_cast<float>(r);
+    }
+    std::vector<Segment3> segs;
+    for (const auto& [a, b] :
+         std::vector<std::pair<int, int>>{{0, first_slab - 5}, {first_slab - 4, first_slab + 4}, {first_slab + 5, 120}}) {
+      Segment3 seg3;
+      if (!makeSegment3(pts, ranges, l, a, b, seg3)) continue;
+      seg3.origin = o;
+      segs.push_back(seg3);
+    }
+    ASSERT_EQ(segs.size(), 3u);
+    EXPECT_EQ(segs[1].last - segs[1].first + 1, 9);
+    scan.points.push_back(pts);
+    scan.lines.push_back(segs);
+  }
+  ScanLineGrouper g;
+  const std::vector<Plane> planes = groupScan(scan, true, g);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_LT(std::acos(std::min(1.0, std::abs(planes[0].fit.normal.z()))) * 180.0 / M_PI, 3.0);
+  EXPECT_EQ(planes[0].points, 29 * (121 - 9));  // the floor's and the slab's pieces, not the edge's
+}
+
 TEST(Grouping, AFewFloorBeamsAtAWallsFootAreCutOff) {
   // A wall x = 1.5 on a floor z = 0, seen from 1.5 m up. One line runs
   // obliquely down to the wall's foot (aimed from x = 1.485 to 1.56 across

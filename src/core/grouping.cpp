@@ -800,12 +800,67 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
              }
            });
   for (Plane& p : second_half) planes.push_back(std::move(p));
+  if (points) dropExplained(planes, points);
   seg_plane_.assign(segs_.size(), -1);
   for (std::size_t k = 0; k < planes.size(); ++k) {
     planes[k].id = static_cast<int>(k);
     for (int m : planes[k].members) seg_plane_[m] = planes[k].id;
   }
   if (p_.crease_reach > p_.crease_margin) closeCreases(planes, p_.crease_reach, p_.crease_margin, p_.merge_angle_deg);
+}
+
+void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints& points) const {
+  const std::size_t n = planes.size();
+  std::vector<Eigen::AlignedBox3d> box(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (const Eigen::Vector3d& v : planes[i].boundary) box[i].extend(v);
+  const int gap = p_.max_line_gap + 1;
+  // Whether a member of a touches a member of b: comes within the distance threshold of it.
+  const auto neighbours = [&](const Plane& a, const Plane& b, double limit) {
+    for (int m : a.members) {
+      const Segment3& s = segs_[m];
+      const auto lo = std::lower_bound(b.members.begin(), b.members.end(), firstSegmentOf(s.line - gap));
+      const auto hi = std::lower_bound(lo, b.members.end(), firstSegmentOf(s.line + gap + 1));
+      for (auto j = lo; j != hi; ++j)
+        if (near(s, segs_[*j], limit)) return true;
+    }
+    return false;
+  };
+  std::vector<char> drop(n, 0);
+  std::vector<const PlaneFit*> beside;
+  for (std::size_t a = 0; a < n; ++a) {
+    const Plane& pa = planes[a];
+    const double limit = p_.threshold((pa.fit.centroid - sensor_).norm());
+    beside.clear();
+    for (std::size_t b = 0; b < n; ++b)
+      if (planes[b].points > pa.points && !box[a].isEmpty() && !box[b].isEmpty() &&
+          box[a].exteriorDistance(box[b]) <= limit && neighbours(pa, planes[b], limit))
+        beside.push_back(&planes[b].fit);
+    if (beside.empty()) continue;
+    // Judged point by point, until too many lie on none of them.
+    const double allowed = (1.0 - kExplained) * pa.points;
+    int own = 0;
+    for (auto m = pa.members.begin(); m != pa.members.end() && own <= allowed; ++m) {
+      const Segment3& s = segs_[*m];
+      const std::vector<Eigen::Vector3f>& pts = *points(s.line);
+      for (int i = s.first; i <= s.last; ++i) {
+        const Eigen::Vector3d q = pts[i].cast<double>();
+        if (!q.allFinite()) continue;
+        const double tol = p_.threshold((q - sensor_).norm());
+        bool theirs = false;
+        for (const PlaneFit* f : beside) theirs = theirs || std::abs(f->normal.dot(q) - f->offset) <= tol;
+        own += !theirs;
+      }
+    }
+    drop[a] = own <= allowed;
+  }
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!drop[i]) {
+      if (w != i) planes[w] = std::move(planes[i]);
+      ++w;
+    }
+  planes.resize(w);
 }
 
 void closeCreases(std::vector<Plane>& planes, double reach, double margin, double min_angle_deg) {

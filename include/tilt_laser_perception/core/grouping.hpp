@@ -187,6 +187,16 @@ class ScanLineGrouper {
   /// line and by the floor's line along its foot): cut out, they seed it.
   void cutAtCreases(const std::vector<int>& cand, const LinePoints& points);
   void buildPolygon(const Region& r, Plane& out) const;
+  /// Drops the planes that hold nothing their bigger neighbours do not: at
+  /// least kExplained of their points lie within the distance threshold of
+  /// bigger planes they touch (segments within the distance threshold of
+  /// each other, lines within max_line_gap).
+  /// Such a plane is made of pieces that straddle a step smaller than the
+  /// split's threshold (a ramp's edge a few centimetres above the floor, the
+  /// footprint's blend over it), or of lines that rig errors moved between
+  /// two planes: its points are the neighbours' own.
+  void dropExplained(std::vector<Plane>& planes, const LinePoints& points) const;
+  static constexpr double kExplained = 0.9;
 
   /// Whether finish() shares its work with a second thread (setThreads()).
   bool shareFinish() const { return threads_ >= 2 && segs_.size() >= kMinSegmentsToShare; }
