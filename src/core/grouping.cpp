@@ -816,7 +816,7 @@ void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints
     for (const Eigen::Vector3d& v : planes[i].boundary) box[i].extend(v);
   const int gap = p_.max_line_gap + 1;
   // Whether a member of a touches a member of b: comes within the distance threshold of it.
-  const auto neighbours = [&](const Plane& a, const Plane& b, double limit) {
+  const auto touch = [&](const Plane& a, const Plane& b, double limit) {
     for (int m : a.members) {
       const Segment3& s = segs_[m];
       const auto lo = std::lower_bound(b.members.begin(), b.members.end(), firstSegmentOf(s.line - gap));
@@ -826,33 +826,59 @@ void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints
     }
     return false;
   };
-  std::vector<char> drop(n, 0);
-  std::vector<const PlaneFit*> beside;
-  for (std::size_t a = 0; a < n; ++a) {
-    const Plane& pa = planes[a];
-    const double limit = p_.threshold((pa.fit.centroid - sensor_).norm());
-    beside.clear();
-    for (std::size_t b = 0; b < n; ++b)
-      if (planes[b].points > pa.points && !box[a].isEmpty() && !box[b].isEmpty() &&
-          box[a].exteriorDistance(box[b]) <= limit && neighbours(pa, planes[b], limit))
-        beside.push_back(&planes[b].fit);
-    if (beside.empty()) continue;
-    // Judged point by point, until too many lie on none of them.
-    const double allowed = (1.0 - kExplained) * pa.points;
-    int own = 0;
+  // The points of a's members within the distance threshold of none of the
+  // planes `by`, every `stride`-th of them (a plane is judged by some 256
+  // points spread over it), counted until more than `allowed`. A
+  // segment's points lie within the split's threshold (at most the distance
+  // threshold) of the line between its ends, so only planes that this line
+  // comes within twice the threshold of can hold any of them (a wall's line
+  // above the floor: none).
+  std::vector<const PlaneFit*> by_seg;
+  const auto ownPoints = [&](const Plane& pa, const std::vector<const Plane*>& by, int stride, double allowed) {
+    double own = 0.0;
     for (auto m = pa.members.begin(); m != pa.members.end() && own <= allowed; ++m) {
       const Segment3& s = segs_[*m];
+      const double tol = p_.threshold(std::max((s.start - sensor_).norm(), (s.end - sensor_).norm()));
+      const Eigen::Vector3d c = s.moments.mean();
+      by_seg.clear();
+      for (const Plane* b : by)
+        if (std::abs(b->fit.normal.dot(c) - b->fit.offset) - std::abs(b->fit.normal.dot(s.end - s.start)) <= 3.0 * tol)
+          by_seg.push_back(&b->fit);
+      if (by_seg.empty()) {
+        own += s.moments.n / stride;
+        continue;
+      }
       const std::vector<Eigen::Vector3f>& pts = *points(s.line);
-      for (int i = s.first; i <= s.last; ++i) {
+      for (int i = s.first + (*m % stride); i <= s.last; i += stride) {
         const Eigen::Vector3d q = pts[i].cast<double>();
         if (!q.allFinite()) continue;
-        const double tol = p_.threshold((q - sensor_).norm());
+        const double t = p_.threshold((q - sensor_).norm());
         bool theirs = false;
-        for (const PlaneFit* f : beside) theirs = theirs || std::abs(f->normal.dot(q) - f->offset) <= tol;
+        for (const PlaneFit* f : by_seg) theirs = theirs || std::abs(f->normal.dot(q) - f->offset) <= t;
         own += !theirs;
       }
     }
-    drop[a] = own <= allowed;
+    return own;
+  };
+  std::vector<char> drop(n, 0);
+  std::vector<const Plane*> around, beside;
+  for (std::size_t a = 0; a < n; ++a) {
+    const Plane& pa = planes[a];
+    if (box[a].isEmpty()) continue;
+    const double limit = p_.threshold((pa.fit.centroid - sensor_).norm());
+    const int stride = std::max(1, pa.points / 256);
+    const double allowed = (1.0 - kExplained) * pa.points / stride;
+    // First by the bigger planes whose polygons come that near (most planes
+    // keep too many points of their own already), then by those it touches.
+    around.clear();
+    for (std::size_t b = 0; b < n; ++b)
+      if (planes[b].points > pa.points && !box[b].isEmpty() && box[a].exteriorDistance(box[b]) <= limit)
+        around.push_back(&planes[b]);
+    if (around.empty() || ownPoints(pa, around, stride, allowed) > allowed) continue;
+    beside.clear();
+    for (const Plane* b : around)
+      if (touch(pa, *b, limit)) beside.push_back(b);
+    drop[a] = !beside.empty() && ownPoints(pa, beside, stride, allowed) <= allowed;
   }
   std::size_t w = 0;
   for (std::size_t i = 0; i < n; ++i)
