@@ -828,11 +828,11 @@ void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints
   };
   // The points of a's members within the distance threshold of none of the
   // planes `by`, every `stride`-th of them (a plane is judged by some 256
-  // points spread over it), counted until more than `allowed`. A
-  // segment's points lie within the split's threshold (at most the distance
-  // threshold) of the line between its ends, so only planes that this line
-  // comes within twice the threshold of can hold any of them (a wall's line
-  // above the floor: none).
+  // points spread over it), counted until more than `allowed`. A segment's
+  // points lie within the split's threshold (at most the distance
+  // threshold; twice it allowed) of the line between its ends, so a plane
+  // that this line stays three thresholds from holds none of them (a wall's
+  // line above the floor): such a member counts whole, its points unread.
   std::vector<const PlaneFit*> by_seg;
   const auto ownPoints = [&](const Plane& pa, const std::vector<const Plane*>& by, int stride, double allowed) {
     double own = 0.0;
