@@ -170,12 +170,24 @@ std::string GroupingParams::validate() const {
 }
 
 std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> ScanLineGrouper::membersIn(
-    const Region& r, int line_lo, int line_hi) const {
+    const std::vector<int>& members, int line_lo, int line_hi) const {
   // Members are segment indices in increasing order, and segments come line
   // by line: the lines' bounds are bounds on the indices themselves.
-  const auto lo = std::lower_bound(r.members.begin(), r.members.end(), firstSegmentOf(line_lo));
-  const auto hi = std::lower_bound(lo, r.members.end(), firstSegmentOf(line_hi + 1));
+  const auto lo = std::lower_bound(members.begin(), members.end(), firstSegmentOf(line_lo));
+  const auto hi = std::lower_bound(lo, members.end(), firstSegmentOf(line_hi + 1));
   return {lo, hi};
+}
+
+bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b, double limit) const {
+  if (a.empty() || b.empty()) return false;
+  const int gap = p_.max_line_gap + 1;
+  const auto [a0, a1] = membersIn(a, segs_[b.front()].line - gap, segs_[b.back()].line + gap);
+  for (auto i = a0; i != a1; ++i) {
+    const auto [b0, b1] = membersIn(b, segs_[*i].line - gap, segs_[*i].line + gap);
+    for (auto j = b0; j != b1; ++j)
+      if (near(segs_[*i], segs_[*j], limit)) return true;
+  }
+  return false;
 }
 
 int ScanLineGrouper::firstSegmentOf(int line) const {
@@ -726,15 +738,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
         if (ra.first_line > rb.last_line + p_.max_line_gap + 1 || rb.first_line > ra.last_line + p_.max_line_gap + 1)
           continue;
         if (!planesAgree(ra, rb)) continue;
-        const double limit = p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm();
-        const int gap = p_.max_line_gap + 1;
-        bool neighbours = false;
-        const auto [a0, a1] = membersIn(ra, rb.first_line - gap, rb.last_line + gap);
-        for (auto i = a0; i != a1 && !neighbours; ++i) {
-          const auto [b0, b1] = membersIn(rb, segs_[*i].line - gap, segs_[*i].line + gap);
-          for (auto j = b0; j != b1 && !neighbours; ++j) neighbours = near(segs_[*i], segs_[*j], limit);
-        }
-        if (!neighbours) continue;
+        if (!touch(ra.members, rb.members, p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm())) continue;
         absorb(a, b);
         merged = true;
       }
@@ -814,18 +818,6 @@ void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints
   std::vector<Eigen::AlignedBox3d> box(n);
   for (std::size_t i = 0; i < n; ++i)
     for (const Eigen::Vector3d& v : planes[i].boundary) box[i].extend(v);
-  const int gap = p_.max_line_gap + 1;
-  // Whether a member of a touches a member of b: comes within the distance threshold of it.
-  const auto touch = [&](const Plane& a, const Plane& b, double limit) {
-    for (int m : a.members) {
-      const Segment3& s = segs_[m];
-      const auto lo = std::lower_bound(b.members.begin(), b.members.end(), firstSegmentOf(s.line - gap));
-      const auto hi = std::lower_bound(lo, b.members.end(), firstSegmentOf(s.line + gap + 1));
-      for (auto j = lo; j != hi; ++j)
-        if (near(s, segs_[*j], limit)) return true;
-    }
-    return false;
-  };
   // The points of a's members within the distance threshold of none of the
   // planes `by`, every `stride`-th of them (a plane is judged by some 256
   // points spread over it), counted until more than `allowed`. A segment's
@@ -877,7 +869,7 @@ void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints
     if (around.empty() || ownPoints(pa, around, stride, allowed) > allowed) continue;
     beside.clear();
     for (const Plane* b : around)
-      if (touch(pa, *b, limit)) beside.push_back(b);
+      if (touch(pa.members, b->members, limit)) beside.push_back(b);
     drop[a] = !beside.empty() && ownPoints(pa, beside, stride, allowed) <= allowed;
   }
   std::size_t w = 0;

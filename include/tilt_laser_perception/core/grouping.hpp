@@ -159,9 +159,16 @@ class ScanLineGrouper {
   /// in beam order (a line the split broke at outliers), seed a plane when
   /// together they lie beside 30 % of it, fit one plane and span it.
   void pairBrokenLines();
-  /// The members of r on lines [line_lo, line_hi].
+  /// The members of r (segment indices, increasing) on lines [line_lo, line_hi].
+  std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> membersIn(
+      const std::vector<int>& members, int line_lo, int line_hi) const;
   std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> membersIn(const Region& r, int line_lo,
-                                                                                         int line_hi) const;
+                                                                                         int line_hi) const {
+    return membersIn(r.members, line_lo, line_hi);
+  }
+  /// Whether a member of `a` comes within `limit` of a member of `b` on a
+  /// line within max_line_gap + 1 of its own (both segment indices, increasing).
+  bool touch(const std::vector<int>& a, const std::vector<int>& b, double limit) const;
   /// The index of the first segment on `line` or after it.
   int firstSegmentOf(int line) const;
   /// line_start_ and spans_ again from segs_ (after segments were cut).
@@ -189,8 +196,7 @@ class ScanLineGrouper {
   void buildPolygon(const Region& r, Plane& out) const;
   /// Drops the planes that hold nothing their bigger neighbours do not: at
   /// least kExplained of their points lie within the distance threshold of
-  /// bigger planes they touch (segments within the distance threshold of
-  /// each other, lines within max_line_gap).
+  /// bigger planes they touch (touch() within the distance threshold).
   /// Such a plane is made of pieces that straddle a step smaller than the
   /// split's threshold (a ramp's edge a few centimetres above the floor, the
   /// footprint's blend over it), or of lines that rig errors moved between
