@@ -34,7 +34,7 @@ echo "== Sweeps of the stairs scene (head tilting 10..60 deg at 1 rad/s), judged
 "$bin/evaluate" --scene stairs --sweeps 5 --dump "$out/stairs" | tee "$out/evaluate.csv"
 echo "== The same with one joint angle per scan line (at its stamp) instead of one per beam"
 "$bin/evaluate" --scene stairs --sweeps 5 --no-skew | tail -1 | tee "$out/evaluate_no_skew.txt"
-echo "== The same with a real rig's errors (--realistic: encoder, backlash, timing, mount, footprint; README)"
+echo "== The same with a real rig's errors (--realistic: encoder, backlash, timing, mount, footprint; doc/simulator.md)"
 "$bin/evaluate" --scene stairs --sweeps 5 --realistic | tail -1 | tee "$out/evaluate_realistic.txt"
 python3 "$here/scripts/plot_heightmap.py" "$out/stairs" "$out/heightmap_evaluate.png"
 echo "== Calibration: a recording of a head 1.2 deg, 6 ms and 0.5/-0.4 deg off (with --realistic's other errors but"

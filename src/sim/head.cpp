@@ -173,7 +173,7 @@ const char* rigOptionsUsage() {
          "    --joint-offset-deg O true minus reported tilt       --mount-error-deg R[,Y] laser roll (and yaw) on its link\n"
          "    --footprint-deg F    beam footprint (mixed pixels over several beams)\n"
          "    --rain P             chance per beam of a drop between 0.3 and 4 m (a weak first echo)\n"
-         "    --realistic          a real rig's set (README); options after it change single values\n";
+         "    --realistic          a real rig's set (doc/simulator.md); options after it change single values\n";
 }
 
 bool parseRigOption(int argc, char** argv, int& i, RigErrors& rig, NoiseParams& noise) {

@@ -32,7 +32,7 @@ struct FusedMapParams {
   /// Cell side [m]; 0: the sweep's own map's (HeightMapParams::resolution).
   /// 2 cm: a quarter of 1 cm's cells (bench_sweep's fused_ms 1.0-1.2 ms against
   /// 2.3 ms for the code with 1 cm cells in the same runs; evaluate's 0.56 against
-  /// 2.04 ms), for about 0.1 cm more RMSE (README, Walking).
+  /// 2.04 ms), for about 0.1 cm more RMSE (doc/notes/walking.md).
   double resolution = 0.02;
   double forget_time = 30.0;      ///< cells and planes not seen for this long are forgotten [s]
   double sigma_min = 0.005;       ///< a cell's height uncertainty seen from up close [m, sigma] ...

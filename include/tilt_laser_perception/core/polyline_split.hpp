@@ -63,7 +63,7 @@ int organizedLineStep(const std::vector<Eigen::Vector3f>& points, int width, int
 /// The spacing of the lines segment_cloud groups by default [rad]: 0.5
 /// degrees, about three times the density of the tilting head's sweeps of 36
 /// lines over 50 degrees, on which the grouping is judged (evaluate). On the
-/// clouds README lists it kept or bettered every figure of every line
+/// clouds doc/notes/real_rigs.md lists it kept or bettered every figure of every line
 /// grouped; 0.6 and 1 degree lost faces of SynPEB's cloud.
 constexpr double kOrganizedLineSpacing = 0.5 * 3.14159265358979323846 / 180.0;
 
@@ -96,7 +96,7 @@ constexpr double kDefaultToleranceNoise = 0.005;
 /// neighbouring beams (its threshold half their spacing), and no tolerance
 /// falls under a fifth of its default (6 mm). Without these two, noise-free
 /// range images of the simulator's scenes lost faces (scripts/noise_table.sh;
-/// README). sigma <= 0: unchanged. Returns k.
+/// doc/other_rigs.md). sigma <= 0: unchanged. Returns k.
 double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping);
 
 }  // namespace core

@@ -94,7 +94,7 @@ struct RigErrors {
 /// The realistic set (`--realistic`): encoder noise 0.5 step (0.044 deg) and
 /// quantization, backlash 0.3 deg, time offset 5 ms, per-line jitter 1 ms,
 /// joint offset 0.5 deg, mount roll 0.3 deg and yaw 0.3 deg; for the laser a
-/// footprint of 1 deg (NoiseParams::footprint). README says where each comes from.
+/// footprint of 1 deg (NoiseParams::footprint). doc/simulator.md says where each comes from.
 void setRealistic(RigErrors& rig, NoiseParams& noise);
 
 /// Parses one rig option at argv[i] (advancing i past its value): --tilt-noise-deg,
