@@ -17,7 +17,8 @@ add_library(tlp_core
   ${TLP_ROOT}/src/core/fused_map.cpp
   ${TLP_ROOT}/src/core/polyline_split.cpp
   ${TLP_ROOT}/src/core/input_check.cpp
-  ${TLP_ROOT}/src/core/calibration.cpp)
+  ${TLP_ROOT}/src/core/calibration.cpp
+  ${TLP_ROOT}/src/core/load_count.cpp)
 # `#pragma omp simd` loops (no OpenMP runtime): the per-beam transforms.
 target_compile_options(tlp_core PRIVATE -fopenmp-simd)
 # segmentOrganized's second thread.

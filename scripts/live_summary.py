@@ -56,8 +56,8 @@ def kind(p):
 
 def write_dump(prefix, planes, hmap):
     with open(prefix + "_heightmap.txt", "w") as f:
-        f.write(f"{hmap.origin.position.x:f} {hmap.origin.position.y:f} {hmap.resolution:f} "
-                f"{hmap.width} {hmap.height}\n")
+        f.write(f"{hmap.info.origin.position.x:f} {hmap.info.origin.position.y:f} {hmap.info.resolution:f} "
+                f"{hmap.info.width} {hmap.info.height}\n")
     np.asarray(hmap.heights, dtype=np.float32).tofile(prefix + "_heightmap.bin")
     with open(prefix + "_planes.csv", "w") as f:
         f.write("kind,id,a,b,c,d,e,f,g\n")
@@ -142,7 +142,7 @@ def main():
     if hmap is not None:
         write_dump(args.prefix, last, hmap)
         known = sum(1 for h in hmap.heights if not math.isnan(h))
-        out.append(f"height map: {hmap.width} x {hmap.height} cells of {100 * hmap.resolution:.0f} cm, "
+        out.append(f"height map: {hmap.info.width} x {hmap.info.height} cells of {100 * hmap.info.resolution:.0f} cm, "
                    f"{known} known ({100.0 * known / max(1, len(hmap.heights)):.0f} %)")
     else:
         out.append("height map: none with the last sweep's stamp")

@@ -28,7 +28,7 @@ echo "== Figure 3: fixed d_T = 0.03 m against adaptive zeta = 0.01 (20 noise see
 echo
 echo "== Split of the shipped recording (stairs scene, head sweeping 10..60 deg at 1 rad/s)"
 "$bin/split_bag" "$here/test/data/stairs.bag" --dump-scan 40 "$out/scan40.csv" | tee "$out/split_bag.txt"
-python3 "$here/scripts/plot_results.py" "$out/figure3.csv" "$out/scan40.csv" "$out/split.png"
+python3 "$here/scripts/dev/plot_results.py" "$out/figure3.csv" "$out/scan40.csv" "$out/split.png"
 echo
 echo "== Sweeps of the stairs scene (head tilting 10..60 deg at 1 rad/s), judged against the truth"
 "$bin/evaluate" --scene stairs --sweeps 5 --dump "$out/stairs" | tee "$out/evaluate.csv"
@@ -36,7 +36,7 @@ echo "== The same with one joint angle per scan line (at its stamp) instead of o
 "$bin/evaluate" --scene stairs --sweeps 5 --no-skew | tail -1 | tee "$out/evaluate_no_skew.txt"
 echo "== The same with a real rig's errors (--realistic: encoder, backlash, timing, mount, footprint; doc/simulator.md)"
 "$bin/evaluate" --scene stairs --sweeps 5 --realistic | tail -1 | tee "$out/evaluate_realistic.txt"
-python3 "$here/scripts/plot_heightmap.py" "$out/stairs" "$out/heightmap_evaluate.png"
+python3 "$here/scripts/dev/plot_heightmap.py" "$out/stairs" "$out/heightmap_evaluate.png"
 echo "== Calibration: a recording of a head 1.2 deg, 6 ms and 0.5/-0.4 deg off (with --realistic's other errors but"
 echo "   no gear play), calibrate on it, then evaluate with the estimate applied"
 "$bin/make_scene_bag" --scene stairs --out "$out/calibration.bag" --duration 8 --realistic --backlash-deg 0 \
@@ -53,8 +53,8 @@ echo "   odom frame, every beam at the base's pose at its time; the height map f
 "$bin/evaluate" --scene stairs --sweeps 8 --walk 0.3 --start -1.5,0 --dump "$out/walk" | tee "$out/evaluate_walk.csv"
 echo "== The same walk with every line of a sweep put at the pose of the sweep's end (--no-pose)"
 "$bin/evaluate" --scene stairs --sweeps 8 --walk 0.3 --start -1.5,0 --no-pose | tail -1 | tee "$out/evaluate_walk_no_pose.txt"
-python3 "$here/scripts/plot_heightmap.py" "$out/walk_fused" "$out/heightmap_walk_fused.png"
-python3 "$here/scripts/plot_heightmap.py" "$out/walk" "$out/heightmap_walk_sweep.png"
+python3 "$here/scripts/dev/plot_heightmap.py" "$out/walk_fused" "$out/heightmap_walk_fused.png"
+python3 "$here/scripts/dev/plot_heightmap.py" "$out/walk" "$out/heightmap_walk_sweep.png"
 echo
 # Another rig's real recording (../shared/data, when it is there): imported, then grouped offline.
 rig_bag="$here/../shared/data/real/tilting_lidar_scanner/room_240.bag"
@@ -64,7 +64,7 @@ if [ -f "$rig_bag" ]; then
   "$bin/group_bag" "$out/room_240_tlp.bag" --urdf "$out/room_240_tlp.urdf" --floor-z 0.10 --dump "$out/room_240" |
     tee -a "$out/room_240.txt"
   "$bin/calibrate" "$out/room_240_tlp.bag" --urdf "$out/room_240_tlp.urdf" 2>/dev/null | tee -a "$out/room_240.txt"
-  python3 "$here/scripts/plot_cloud.py" "$out/room_240_sweep0.pcd" "$out/room_240.png" \
+  python3 "$here/scripts/dev/plot_cloud.py" "$out/room_240_sweep0.pcd" "$out/room_240.png" \
     "room_240 (tilting_lidar_scanner), its first sweep; colours: planes" | tee -a "$out/room_240.txt"
 else
   echo "(../shared/data absent: the other rig's recording is skipped)" > "$out/room_240.txt"
@@ -83,12 +83,12 @@ trap 'kill -INT $launch 2>/dev/null; wait $launch 2>/dev/null || true' EXIT
 live_ok=0
 python3 "$here/scripts/live_summary.py" --sweeps 5 --prefix "$out/live" --levels 0,0.15,0.30,0.45,0.60 \
   --timeout 90 || live_ok=$?
-bash "$here/scripts/rviz_screenshot.sh" "$out/rviz.png" 15
+bash "$here/scripts/dev/rviz_screenshot.sh" "$out/rviz.png" 15
 shot_ok=0
-python3 "$here/scripts/check_screenshot.py" "$out/rviz.png" | tee "$out/rviz_check.txt" || shot_ok=$?
+python3 "$here/scripts/dev/check_screenshot.py" "$out/rviz.png" | tee "$out/rviz_check.txt" || shot_ok=$?
 kill -INT $launch 2>/dev/null; wait $launch 2>/dev/null || true
 trap - EXIT
-python3 "$here/scripts/plot_heightmap.py" "$out/live" "$out/heightmap.png"
+python3 "$here/scripts/dev/plot_heightmap.py" "$out/live" "$out/heightmap.png"
 {
   echo "tilt_laser_perception main job, $(date -u +%Y-%m-%dT%H:%M:%SZ)"
   echo

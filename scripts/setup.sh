@@ -17,14 +17,14 @@ PKGS=(
   python3-genmsg python3-gencpp python3-genpy
   libroscpp-dev libnodeletlib-dev libnodelet-dev libnodeletlib-tools pluginlib-dev
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
-  libstd-msgs-dev libsensor-msgs-dev libgeometry-msgs-dev libvisualization-msgs-dev
+  libstd-msgs-dev libsensor-msgs-dev libgeometry-msgs-dev libvisualization-msgs-dev libnav-msgs-dev
   libdiagnostic-msgs-dev libdiagnostic-updater-dev libmessage-filters-dev
   librosbag-dev librosbag-storage-dev librostest-dev python3-rostest python3-rosunit
   python3-roslaunch python3-rosmaster rosout rosbash python3-rostopic
   python3-rosnode python3-rosparam python3-rosbag python3-rosgraph
   python3-sensor-msgs python3-std-msgs python3-diagnostic-msgs
   python3-yaml
-  ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs ros-diagnostic-msgs
+  ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs ros-diagnostic-msgs ros-nav-msgs python3-nav-msgs
   libtf2-msgs-dev ros-tf2-msgs libtf2-dev libtf2-ros-dev libtf2-eigen-dev python3-tf2-ros
   liburdf-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
   # libraries

@@ -3,12 +3,13 @@
 # the gtests of the ROS-free core and simulator, the rostests of the nodelets
 # and the python tests (record/replay, screenshot check); then the ROS-free
 # gtests under AddressSanitizer + UndefinedBehaviorSanitizer and the driver
-# tests under ThreadSanitizer (scripts/sanitize.sh), and each libFuzzer target
-# for TLP_FUZZ_SECONDS (default 30) after its kept crash inputs (scripts/fuzz.sh).
+# tests under ThreadSanitizer (scripts/ci/sanitize.sh), and each libFuzzer target
+# for TLP_FUZZ_SECONDS (default 30) after its kept crash inputs (scripts/ci/fuzz.sh).
 # Runs them all; exits non-zero when any fails.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$here/scripts/setup.sh"
+bash "$here/scripts/ci/check_test_lists.sh"
 bash "$here/scripts/build.sh"
 export PATH="/usr/bin:$PATH"
 ws="${TLP_WS:-$here/build_ws}"
@@ -29,8 +30,8 @@ timed='driver_drift|gtest_test_head'
 run_ctest ' -E' "$timed" || status=1
 run_ctest ' -R' "$timed" ' --repeat' 'until-pass:2' || status=1
 colcon test-result --verbose --test-result-base build/tilt_laser_perception || status=1
-bash "$here/scripts/sanitize.sh" all || { echo "sanitizer tests FAILED"; status=1; }
-bash "$here/scripts/fuzz.sh" "${TLP_FUZZ_SECONDS:-30}" || { echo "fuzzing FAILED"; status=1; }
-[ "$status" -eq 0 ] || python3 "$here/scripts/test_failures.py" build/tilt_laser_perception/test_results || true
+bash "$here/scripts/ci/sanitize.sh" all || { echo "sanitizer tests FAILED"; status=1; }
+bash "$here/scripts/ci/fuzz.sh" "${TLP_FUZZ_SECONDS:-30}" || { echo "fuzzing FAILED"; status=1; }
+[ "$status" -eq 0 ] || python3 "$here/scripts/ci/test_failures.py" build/tilt_laser_perception/test_results || true
 [ "$status" -eq 0 ] && echo "all tests passed" || echo "SOME TESTS FAILED"
 exit "$status"

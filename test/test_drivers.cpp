@@ -190,7 +190,7 @@ TEST_P(ServoDriverTest, RecoversFromEveryServoFault) {
 TEST_P(ServoDriverTest, SwitchesTheTorqueOnAgainWhenItWentOffWithNoError) {
   // An overload that clears itself before the driver's recovery (as a servo
   // whose power was cycled): no error left, but the torque is off and the head
-  // stands still. Found by the soak (scripts/soak.py): the sweeps stopped.
+  // stands still. Found by the soak (scripts/bench/soak.py): the sweeps stopped.
   EmulatedServo es(proto(), "");
   sim::Mx64Emulator& emu = es.emu;
   Recorder rec;

@@ -1,6 +1,6 @@
-"""The rviz screenshot check (scripts/check_screenshot.py) on real rviz
+"""The rviz screenshot check (scripts/dev/check_screenshot.py) on real rviz
 screenshots of the stairs scene (test/data/rviz, taken with
-scripts/rviz_screenshot.sh): it passes the full view and fails each view with
+scripts/dev/rviz_screenshot.sh): it passes the full view and fails each view with
 one display switched off."""
 import os
 import subprocess
@@ -9,9 +9,9 @@ import sys
 import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-CHECK = os.path.join(HERE, "..", "scripts", "check_screenshot.py")
+CHECK = os.path.join(HERE, "..", "scripts", "dev", "check_screenshot.py")
 DATA = os.path.join(HERE, "data", "rviz")
-sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
+sys.path.insert(0, os.path.join(HERE, "..", "scripts", "dev"))
 import check_screenshot  # noqa: E402
 
 

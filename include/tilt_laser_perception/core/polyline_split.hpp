@@ -95,7 +95,7 @@ constexpr double kDefaultToleranceNoise = 0.005;
 /// curve, not a line): its zeta stays at least half the angle between
 /// neighbouring beams (its threshold half their spacing), and no tolerance
 /// falls under a fifth of its default (6 mm). Without these two, noise-free
-/// range images of the simulator's scenes lost faces (scripts/noise_table.sh;
+/// range images of the simulator's scenes lost faces (scripts/bench/noise_table.sh;
 /// doc/other_rigs.md). sigma <= 0: unchanged. Returns k.
 double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping);
 

@@ -14,7 +14,7 @@
 # usage: bench_pipeline.sh [SECONDS=30] [WARMUP=10] [BASELINE_WS]
 # Goals (issue 18): the package under 5 % of one core, under 100 MB resident.
 set -euo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
+here="$(cd "$(dirname "$0")/../.." && pwd)"
 window="${1:-30}"; warmup="${2:-10}"; baseline="${3:-}"
 export PATH="/usr/bin:$PATH"
 ws="${TLP_WS:-$here/build_ws}"
@@ -32,7 +32,7 @@ start() {  # workspace, port: starts sim.launch from that workspace; prints rosl
 robot() {  # port: the robot's joint states to the pipeline under that master
   ( set +u; source "$ws/install/setup.bash"; set -u
     export ROS_MASTER_URI="http://localhost:$1"
-    sleep 3; exec python3 "$here/scripts/robot_joint_states.py" --rate "$TLP_ROBOT_HZ" ) >/tmp/tlp_bench_robot_$1.log 2>&1 &
+    sleep 3; exec python3 "$here/scripts/bench/robot_joint_states.py" --rate "$TLP_ROBOT_HZ" ) >/tmp/tlp_bench_robot_$1.log 2>&1 &
   echo $!
 }
 base_port=$(( 13000 + RANDOM % 500 ))

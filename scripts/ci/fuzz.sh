@@ -7,7 +7,7 @@
 # build_fuzz/crash-NAME-*: fix it, then keep it under test/fuzz/regressions/NAME.
 # usage: fuzz.sh [SECONDS] [NAME...]
 set -euo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
+here="$(cd "$(dirname "$0")/../.." && pwd)"
 secs="${1:-30}"; shift || true
 names=("$@"); [ ${#names[@]} -gt 0 ] || names=(fuzz_scip fuzz_dynamixel fuzz_split fuzz_grouping)
 build="${TLP_FUZZ_BUILD:-$here/build_fuzz}"

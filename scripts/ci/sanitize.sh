@@ -7,7 +7,7 @@
 # build_asan/, build_tsan/. Exits non-zero on any report or failed test.
 # usage: sanitize.sh [asan|tsan|all]
 set -euo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
+here="$(cd "$(dirname "$0")/../.." && pwd)"
 what="${1:-all}"
 common="-fno-omit-frame-pointer -g -O1"
 if [ "$what" = all ] || [ "$what" = asan ]; then

@@ -4,7 +4,7 @@
 # usage: rviz_screenshot.sh OUT.png [SECONDS_TO_WAIT] [CONFIG]
 # Needs a ROS master with the pipeline running (sim.launch, replay.launch ...).
 set -euo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
+here="$(cd "$(dirname "$0")/../.." && pwd)"
 out="$1"; wait_s="${2:-12}"; config="${3:-$here/rviz/tilt_laser.rviz}"
 disp=":$(( 90 + RANDOM % 100 ))"
 Xvfb "$disp" -screen 0 1280x800x24 -nolisten tcp >/dev/null 2>&1 &

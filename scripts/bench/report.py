@@ -1,0 +1,305 @@
+#!/usr/bin/env python3
+"""The evaluation report: runs the evaluations and benchmarks that README and
+doc/ cite, and writes doc/evaluation.md (tables, date, commit, machine, the
+command of each table) and README's table of what to expect (between its
+report:summary markers). A figure changes by running this again, never by
+editing text. scripts/report.sh sets up and builds first.
+
+  report.py [--ws build_ws] [--shared ../shared] [--quick] [--no-readme]
+
+--quick: fewer seeds and no pipeline run (a check of the script, not a report).
+"""
+import argparse
+import datetime
+import json
+import os
+import platform
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, HERE)
+from eval_table import summarize  # noqa: E402
+
+BEGIN = "<!-- report:summary begin (written by scripts/report.sh; do not edit) -->"
+END = "<!-- report:summary end -->"
+
+
+def run(cmd, **kw):
+    return subprocess.run(cmd, capture_output=True, text=True, check=True, **kw).stdout
+
+
+def table(header, rows):
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+class Report:
+    def __init__(self, bin_dir, ws, shared, quick):
+        self.bin, self.ws, self.shared, self.quick = bin_dir, ws, shared, quick
+        self.sections = []   # (title, command, text)
+        self.summary = {}
+
+    def tool(self, name):
+        return os.path.join(self.bin, name)
+
+    def section(self, title, command, text):
+        self.sections.append((title, command, text))
+        print(f"== {title}", flush=True)
+
+    # ---- simulated scenes -------------------------------------------------
+    def scenes(self):
+        seeds = [1, 2] if self.quick else [1, 2, 3, 4, 5, 6]
+        names = sorted(f[:-5] for f in os.listdir(os.path.join(ROOT, "config", "scenes"))
+                       if f.endswith(".yaml") and not f.startswith("figure3"))
+        rows, self.scene_figures = [], {}
+        for name in names:
+            for rig in ([], ["--realistic"]):
+                f = summarize(self.tool("evaluate"), seeds, ["--scene", name, "--sweeps", "6"] + rig)
+                self.scene_figures[(name, bool(rig))] = f
+                rows.append([name, "realistic" if rig else "ideal",
+                             f"{f['correct']:.0f} / {f['true_faces']:.0f} ({100 * f['correct'] / max(f['true_faces'], 1):.1f} %)",
+                             f"{f['noise']:.2f}", f"{f['missed']:.2f}", f"{f['normal_err_deg']:.2f}",
+                             f"{f['rmse_cm']:.2f}", f"{f['latency_ms']:.2f}"])
+        s = ",".join(map(str, seeds))
+        self.section(
+            "Planes and height map on the simulator's scenes",
+            f"python3 scripts/bench/eval_table.py BIN/evaluate --seeds {s} -- --scene NAME --sweeps 6 [--realistic]",
+            f"Every scene of `config/scenes` (but the Figure 3 ones), seeds {s}, 6 sweeps each, sweeps at 1 rad/s over "
+            "10-60 degrees; `realistic`: a real rig's errors (encoder steps, backlash, timing, mount, beam footprint; "
+            "doc/simulator.md). Correct faces by Hoover et al.'s criteria at 80 % overlap, summed over the sweeps; "
+            "noise and missed: planes a sweep; normal error of the correct faces; the sweep's height map against the "
+            "truth; latency: from the sweep's last line to its planes and map (median sweep).\n\n" +
+            table(["scene", "rig", "correct faces", "noise", "missed", "normal error [deg]", "height map RMSE [cm]",
+                   "latency [ms]"], rows))
+        st, sr = self.scene_figures[("stairs", False)], self.scene_figures[("stairs", True)]
+        self.summary["stairs"] = (f"{100 * st['correct'] / st['true_faces']:.0f} % of the faces, "
+                                  f"height map {st['rmse_cm']:.1f} cm RMSE "
+                                  f"({100 * sr['correct'] / sr['true_faces']:.0f} % and {sr['rmse_cm']:.1f} cm "
+                                  "with a real rig's errors)")
+        cl = self.scene_figures[("clutter", False)]
+        self.summary["clutter"] = (f"{100 * cl['correct'] / cl['true_faces']:.0f} % of the faces, "
+                                   f"height map {cl['rmse_cm']:.1f} cm RMSE")
+        out = run([self.tool("evaluate"), "--scene", "stairs", "--sweeps", "3"])
+        lines = [int(l.split(",")[1]) for l in out.splitlines() if l and l[0].isdigit()]
+        self.summary["period"] = f"{statistics.median(lines) / 40.0:.2f} s ({statistics.median(lines):.0f} scans at 40 Hz)"
+
+    def walking(self):
+        seeds = [1] if self.quick else [1, 2, 3]
+        rows = []
+        for label, args in (("walking 0.3 m/s towards the stairs", ["--walk", "0.3", "--start", "-1.5,0"]),):
+            f = summarize(self.tool("evaluate"), seeds, ["--scene", "stairs", "--sweeps", "10"] + args)
+            rows.append([label, f"{f['rmse_cm']:.2f}", f"{f['fused_rmse_cm']:.2f}", f"{f['front']:.0f}",
+                         f"{f['fused_front']:.0f}", f"{100 * f['correct'] / max(f['true_faces'], 1):.1f} %"])
+            self.summary["walk"] = f"fused height map {f['fused_rmse_cm']:.1f} cm RMSE"
+        s = ",".join(map(str, seeds))
+        self.section("Walking: the fused height map",
+                     f"python3 scripts/bench/eval_table.py BIN/evaluate --seeds {s} -- --scene stairs --sweeps 10 "
+                     "--walk 0.3 --start -1.5,0",
+                     "The robot walks towards the stairs; every beam at the base's pose at its own time, the map "
+                     "fused over sweeps. The front: the 1 m before the feet, known by the sweep's own map and by "
+                     "the fused one, over the sweeps after 1 m walked.\n\n" +
+                     table(["run", "sweep map RMSE [cm]", "fused map RMSE [cm]", "front known, sweep [%]",
+                            "front known, fused [%]", "correct faces"], rows))
+
+    # ---- the split ----------------------------------------------------------
+    def figure3(self):
+        seeds = 5 if self.quick else 20
+        out = run([self.tool("figure3"), "--seeds", str(seeds)])
+        rows = [l.split(",") for l in out.splitlines()[1:] if l]
+        self.section("The Figure 3 experiment: fixed against adaptive split threshold",
+                     f"BIN/figure3 --seeds {seeds}",
+                     "A 0.6 m board at 1 and 2 m before a background, a wall at 10, 20 and 30 m; the fixed threshold "
+                     "(3 cm) against the adaptive one (zeta = 0.01), data-sheet noise, means a scan. Spurious: an "
+                     "edge point farther than 2 beams from every true edge.\n\n" +
+                     table(["distance [m]", "mode", "segments", "edge points", "spurious", "true edges found", "true"],
+                           rows))
+
+    # ---- speed --------------------------------------------------------------
+    def speed(self):
+        out = json.loads(run([self.tool("bench_split"), "--benchmark_format=json"]))
+        split = {b["name"]: b["real_time"] * (1e-3 if b["time_unit"] == "ns" else 1.0) for b in out["benchmarks"]}
+        out = run([self.tool("bench_sweep")])
+        med = [l for l in out.splitlines() if "_median" in l and l.startswith("Sweep")]
+        kv = dict(re.findall(r"(\w+(?:/\w+)?)=([0-9.]+)", med[0])) if med else {}
+        rows = [[k, f"{v:.1f} us"] for k, v in split.items() if "/" in k]
+        for key, what in (("split_ms", "split of a 1081 x 200 sweep"), ("group_ms", "grouping of that sweep, as lines arrive"),
+                          ("latency_ms", "latency after its last line (finish, map, fused map)"),
+                          ("finish_ms", "of it: the grouping's finish"), ("map_ms", "of it: the height map")):
+            if key in kv:
+                rows.append([what, f"{float(kv[key]):.2f} ms"])
+        self.summary["latency"] = f"{float(kv.get('latency_ms', 'nan')):.2f} ms"
+        # segment_cloud on a 500 x 500 range image
+        tmp = tempfile.mkdtemp()
+        img = os.path.join(tmp, "stairs500.pcd")
+        run([self.tool("scene_cloud"), img, "--scene", "stairs", "--size", "500", "--seed", "1"])
+        times = []
+        for _ in range(3 if self.quick else 5):
+            head = run([self.tool("segment_cloud"), img]).splitlines()[0]
+            m = re.search(r"([0-9.]+) ms", head)
+            times.append(float(m.group(1)))
+        rows.append(["segment_cloud, a 500 x 500 range image of the stairs (median of runs)",
+                     f"{statistics.median(times):.1f} ms"])
+        shutil.rmtree(tmp, ignore_errors=True)
+        self.section("Speed", "BIN/bench_split; BIN/bench_sweep; BIN/scene_cloud IMG.pcd --scene stairs --size 500; "
+                     "BIN/segment_cloud IMG.pcd",
+                     "CPU time on this machine (its speed varies from hour to hour: compare builds in one session). "
+                     "bench_split: one 1081-beam scan; bench_sweep: medians of 20 sweeps in five runs, the median "
+                     "run.\n\n" + table(["what", "time"], rows))
+
+    def pipeline(self):
+        if self.quick:
+            return
+        runs = []
+        for _ in range(3):
+            out = run(["bash", os.path.join(ROOT, "scripts", "bench", "bench_pipeline.sh"), "30", "10"],
+                      env=dict(os.environ, TLP_WS=self.ws))
+            m = re.search(r"cpu_percent=([0-9.]+) rss_mb=([0-9.]+)", out)
+            if m:
+                runs.append((float(m.group(1)), float(m.group(2))))
+        if not runs:
+            return
+        cpu = statistics.median(r[0] for r in runs)
+        rss = statistics.median(r[1] for r in runs)
+        self.summary["cpu"] = f"{cpu:.1f} % of one core, {rss:.0f} MB"
+        self.section("Cost of the running head", "bash scripts/bench/bench_pipeline.sh 30 10 (three runs)",
+                     "sim.launch on the emulated head (stairs, 40 Hz scans of 1081 beams, the grouper on, nobody "
+                     "subscribed to the outputs): the head's process (driver, splitter, grouper, tf) over 30 s after "
+                     "10 s, not counting the emulator and ROS's own processes.\n\n" +
+                     table(["run", "CPU [% of one core]", "resident [MB]"],
+                           [[i + 1, f"{c:.2f}", f"{r:.1f}"] for i, (c, r) in enumerate(runs)] +
+                           [["median", f"{cpu:.2f}", f"{rss:.1f}"]]))
+
+    # ---- data nobody here made ----------------------------------------------
+    def other_rigs(self):
+        data = os.path.join(self.shared, "data")
+        if not os.path.isdir(data):
+            self.section("Data from elsewhere", "-", f"`{data}` is absent: not run.")
+            return
+        rows = []
+        synpeb = os.path.join(data, "synpeb", "test_100.pcd")
+        if os.path.exists(synpeb):
+            for extra in ([], ["--noise", "auto"]):
+                out = run([self.tool("segment_cloud"), synpeb, "--truth-field", "intensity"] + extra)
+                m = re.search(r"correct=(\d+) over=(\d+) under=(\d+) missed=(\d+) noise=(\d+)", out)
+                t = re.search(r"(\d+) planes; at", out)
+                rows.append([f"SynPEB test_100 (segment_cloud{' ' + ' '.join(extra) if extra else ''})",
+                             f"{m.group(1)} of {t.group(1) if t else '?'} planes correct, noise {m.group(5)}"])
+        tmp = tempfile.mkdtemp()
+        for bag in ("room_240", "cardboard_box", "first_scan"):
+            path = os.path.join(data, "real", "tilting_lidar_scanner", bag + ".bag")
+            if not os.path.exists(path):
+                continue
+            out_bag = os.path.join(tmp, bag + "_tlp.bag")
+            run([sys.executable, os.path.join(ROOT, "scripts", "import_tilt_bag.py"), path, out_bag])
+            out = run([self.tool("group_bag"), out_bag, "--urdf", out_bag[:-4] + ".urdf", "--room"])
+            for k, m in enumerate(re.finditer(r"room: floor at z=[-0-9.]+ m: \d+ points, ([0-9.]+) % in plane -?\d+; "
+                                              r"(?:largest wall \(normal (\d+) deg, [-0-9.]+ m\): \d+ points, ([0-9.]+) %"
+                                              r"|no vertical plane)", out)):
+                planes = re.findall(r"sweep \d+: \d+ lines, (\d+) planes", out)
+                wall = f"largest wall {m.group(3)} %" if m.group(3) else "no vertical plane"
+                rows.append([f"{bag} sweep {k} (import_tilt_bag.py, group_bag --room)",
+                             f"{planes[k] if k < len(planes) else '?'} planes; floor {m.group(1)} % in one plane, "
+                             f"{wall} in one plane"])
+            if "closed sweep" in out:
+                rows[-1][1] += " (the recording's end closed this sweep)"
+        shutil.rmtree(tmp, ignore_errors=True)
+        for path, why in ((os.path.join(data, "real", "3dtk", "scan000.3d"),
+                           "not read yet: segment_cloud has no reader of the 3DTK format (issue 38)"),
+                          (os.path.join(data, "real", "drc", "tilted-steps.pcd"),
+                           "not segmented yet: a spinning laser's flat cloud in scan order (issue 39)")):
+            if os.path.exists(path):
+                rows.append([os.path.relpath(path, data), why])
+        self.section("Data from elsewhere", "BIN/segment_cloud CLOUD --truth-field intensity [--noise auto]; "
+                     "python3 scripts/import_tilt_bag.py BAG OUT.bag && BIN/group_bag OUT.bag --urdf OUT.urdf --room",
+                     f"The recordings and clouds of `{os.path.relpath(data, ROOT)}` (its README says what each is). "
+                     "`--room`: the share of the floor (the lowest level holding 2 % of the points) and of the "
+                     "largest wall (the vertical surface most points of vertical planes lie on) that their largest "
+                     "plane holds.\n\n" + table(["data", "result"], rows))
+        room = [r for r in rows if r[0].startswith("room_240 sweep 0")]
+        if room:
+            self.summary["room"] = room[0][1]
+
+    def calibration(self):
+        out = run([self.tool("bench_calibrate")])
+        med = [l for l in out.splitlines() if "median" in l or (l.startswith("BM_") or l.startswith("Calib"))]
+        m = re.search(r"^(\S+)\s+([0-9.]+) (ms|s|us)\s+([0-9.]+) (ms|s|us)", "\n".join(med), re.M)
+        if m:
+            self.section("Calibration's run time", "BIN/bench_calibrate",
+                         f"The estimator on 10 sweeps of the stairs: {m.group(2)} {m.group(3)} ({m.group(1)}).")
+
+    # ---- output ---------------------------------------------------------------
+    def write(self, out_path, readme, seconds):
+        commit = run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip()
+        dirty = run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no"]).strip()
+        cpu = "unknown"
+        try:
+            with open("/proc/cpuinfo") as f:
+                cpu = next(l.split(":", 1)[1].strip() for l in f if l.startswith("model name"))
+        except (OSError, StopIteration):
+            pass
+        mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+        now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+        lines = ["# Evaluation report", "",
+                 "Generated by `bash scripts/report.sh` (do not edit: run it again). BIN is "
+                 "`build_ws/install/tilt_laser_perception/lib/tilt_laser_perception`.", "",
+                 f"- date: {now}",
+                 f"- commit: {commit}{' with uncommitted changes' if dirty else ''}",
+                 f"- machine: {cpu}, {os.cpu_count()} cores, {mem:.0f} GiB, {platform.platform()}",
+                 f"- the report's run took {seconds / 60:.1f} minutes" + (" (--quick)" if self.quick else ""), "",
+                 "## What to expect", "", self.summary_table(), ""]
+        for title, command, text in self.sections:
+            lines += [f"## {title}", "", f"Command: `{command}`", "", text, ""]
+        with open(out_path, "w") as f:
+            f.write("\n".join(lines))
+        if readme:
+            with open(readme) as f:
+                text = f.read()
+            a, b = text.find(BEGIN), text.find(END)
+            if a < 0 or b < 0:
+                sys.exit(f"{readme} has no report:summary markers")
+            block = (BEGIN + "\n" + self.summary_table() + "\n\nFrom the report of " + now + " (commit " + commit +
+                     ") on " + f"{os.cpu_count()} cores of {cpu}.\n")
+            with open(readme, "w") as f:
+                f.write(text[:a] + block + text[b:])
+
+    def summary_table(self):
+        s = self.summary
+        rows = [["sweep period (10-60 degrees at 1 rad/s)", s.get("period", "not measured")],
+                ["latency: the sweep's last scan to its planes and map (bench_sweep)", s.get("latency", "not measured")],
+                ["CPU and memory of the running head (driver, splitter, grouper, tf)", s.get("cpu", "not measured")],
+                ["stairs scene (simulated), per sweep", s.get("stairs", "not measured")],
+                ["clutter scene (simulated), per sweep", s.get("clutter", "not measured")],
+                ["walking towards the stairs", s.get("walk", "not measured")],
+                ["a real tilting stand (room_240)", s.get("room", "not measured")]]
+        return table(["what", "figure"], rows)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--ws", default=os.path.join(ROOT, "build_ws"))
+    ap.add_argument("--shared", default=os.path.join(ROOT, "..", "shared"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "doc", "evaluation.md"))
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--no-readme", action="store_true")
+    a = ap.parse_args()
+    bin_dir = os.path.join(a.ws, "install", "tilt_laser_perception", "lib", "tilt_laser_perception")
+    if not os.path.exists(os.path.join(bin_dir, "evaluate")):
+        sys.exit(f"no build in {a.ws}: run scripts/build.sh (or scripts/report.sh)")
+    t0 = time.time()
+    r = Report(bin_dir, os.path.abspath(a.ws), os.path.abspath(a.shared), a.quick)
+    for step in (r.scenes, r.walking, r.figure3, r.speed, r.calibration, r.other_rigs, r.pipeline):
+        step()
+    r.write(a.out, None if a.no_readme else os.path.join(ROOT, "README.md"), time.time() - t0)
+    print(f"wrote {a.out} in {(time.time() - t0) / 60:.1f} minutes")
+
+
+if __name__ == "__main__":
+    main()

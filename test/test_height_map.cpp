@@ -1,0 +1,143 @@
+// The height map: polygons filled, obstacles marked, mixed pixels, a grid built again.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <random>
+
+#include <Eigen/Eigenvalues>
+
+#include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/core/polyline_split.hpp"
+#include "tilt_laser_perception/core/sequence.hpp"
+#include "tilt_laser_perception/core/sweep.hpp"
+
+using namespace tilt_laser_perception::core;
+
+TEST(HeightMap, FillsPolygonsAndMarksObstacles) {
+  SweepResult s;
+  Plane floor;
+  floor.id = 0;
+  floor.fit.normal = Eigen::Vector3d::UnitZ();
+  floor.fit.offset = 0.0;
+  floor.fit.centroid = Eigen::Vector3d(1, 0, 0);
+  floor.area = 4.0;
+  floor.boundary = {{0, -1, 0}, {2, -1, 0}, {2, 1, 0}, {0, 1, 0}};
+  floor.holes = {{{0.5, -0.25, 0}, {1.0, -0.25, 0}, {1.0, 0.25, 0}, {0.5, 0.25, 0}}};
+  Plane top = floor;
+  top.id = 1;
+  top.fit.offset = 0.2;
+  top.fit.centroid = Eigen::Vector3d(0.75, 0, 0.2);
+  top.area = 0.25;
+  top.boundary = {{0.5, -0.25, 0.2}, {1.0, -0.25, 0.2}, {1.0, 0.25, 0.2}, {0.5, 0.25, 0.2}};
+  top.holes.clear();
+  s.planes = {floor, top};
+  // A pole at (1.5, 0.5): points up to 1 m, in no plane.
+  SweepLine line;
+  for (int i = 0; i < 10; ++i) line.points.emplace_back(1.505f, 0.505f, 0.1f * (i + 1));
+  s.lines.push_back(line);
+  HeightMapParams p;
+  p.origin_x = 0.0;
+  p.origin_y = -1.0;
+  p.width = 200;
+  p.height = 200;
+  HeightMapGrid g;
+  buildHeightMap(s, p, g);
+  const auto at = [&](double x, double y) { return g.index(static_cast<int>(x / 0.01), static_cast<int>((y + 1.0) / 0.01)); };
+  EXPECT_NEAR(g.heights[at(0.2, 0.0)], 0.0, 1e-6);
+  EXPECT_EQ(g.classes[at(0.2, 0.0)], CellClass::Floor);
+  EXPECT_NEAR(g.heights[at(0.75, 0.0)], 0.2, 1e-6);  // in the floor's hole: the top
+  EXPECT_EQ(g.classes[at(0.75, 0.0)], CellClass::Step);
+  EXPECT_EQ(g.plane_ids[at(0.75, 0.0)], 1);
+  EXPECT_NEAR(g.heights[at(1.5, 0.5)], 1.0, 1e-6);
+  EXPECT_EQ(g.classes[at(1.5, 0.5)], CellClass::Obstacle);
+  EXPECT_EQ(g.classes[at(1.9, 0.99)], CellClass::Floor);  // the floor's far corner (an out-of-map read here: found by ASan)
+  EXPECT_EQ(g.floor_plane, 0);
+}
+
+TEST(HeightMap, AMixedPixelIsNoObstacle) {
+  // One scan line from (0, 0, 1.3): a box top (z 0.3, in no plane) up to its
+  // edge E, then a mixed pixel V halfway along E's ray to the floor behind,
+  // then the floor from F on. V stands 0.15 m above the floor, but the split
+  // marked it a veil point: not an obstacle. E is the box.
+  SweepResult s;
+  Plane floor;
+  floor.fit.normal = Eigen::Vector3d::UnitZ();
+  floor.fit.centroid = Eigen::Vector3d(1, 0, 0);
+  floor.area = 4.0;
+  floor.boundary = {{0, -1, 0}, {2, -1, 0}, {2, 1, 0}, {0, 1, 0}};
+  s.planes = {floor};
+  const Eigen::Vector3f origin(0.0f, 0.0f, 1.3f), edge(1.003f, 0.053f, 0.3f);  // off cell borders
+  const Eigen::Vector3f far = origin + 1.3f * (edge - origin), veil = 0.5f * (edge + far);
+  SweepLine line;
+  line.origin = origin;
+  for (int k = 0; k < 5; ++k) line.points.emplace_back(1.0f, 0.01f * k, 0.3f);
+  line.points.push_back(edge);
+  line.points.push_back(veil);
+  for (int k = 0; k < 5; ++k) line.points.push_back(far + Eigen::Vector3f(0.0f, 0.013f * k, 0.0f));
+  line.edges = {{5, EdgeKind::Jump}, {6, EdgeKind::Veil}, {7, EdgeKind::Occluded}};
+  s.lines.push_back(line);
+  HeightMapParams p;
+  p.origin_x = 0.0;
+  p.origin_y = -1.0;
+  p.width = 200;
+  p.height = 200;
+  const auto cell = [&](const HeightMapGrid& g, const Eigen::Vector3f& q) {
+    return g.index(static_cast<int>(q.x() / 0.01), static_cast<int>((q.y() + 1.0) / 0.01));
+  };
+  HeightMapGrid g;
+  buildHeightMap(s, p, g);
+  EXPECT_EQ(g.classes[cell(g, veil)], CellClass::Floor);
+  EXPECT_NEAR(g.heights[cell(g, veil)], 0.0, 1e-6);
+  EXPECT_EQ(g.classes[cell(g, edge)], CellClass::Obstacle);
+  EXPECT_NEAR(g.heights[cell(g, edge)], 0.3, 1e-6);
+  s.lines[0].edges = {{5, EdgeKind::Jump}, {7, EdgeKind::Occluded}};  // not marked: V is an obstacle
+  buildHeightMap(s, p, g);
+  EXPECT_EQ(g.classes[cell(g, veil)], CellClass::Obstacle);
+  EXPECT_NEAR(g.heights[cell(g, veil)], veil.z(), 1e-6);
+}
+
+TEST(HeightMap, AGridBuiltAgainEqualsAFreshOne) {
+  // buildHeightMap clears only the last map's box when it is given that map
+  // again: a second, smaller sweep into the same grid must equal the grid a
+  // fresh build of it gives (nothing of the first left outside the second's box).
+  const auto floorSweep = [](double x0, double x1, double y0, double y1, double z) {
+    SweepResult s;
+    Plane pl;
+    pl.fit.normal = Eigen::Vector3d::UnitZ();
+    pl.fit.offset = z;
+    pl.fit.centroid = Eigen::Vector3d(0.5 * (x0 + x1), 0.5 * (y0 + y1), z);
+    pl.area = (x1 - x0) * (y1 - y0);
+    pl.boundary = {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}};
+    s.planes = {pl};
+    SweepLine line;  // a pole: an obstacle cell
+    for (int i = 0; i < 5; ++i) line.points.emplace_back(static_cast<float>(x1 - 0.05), static_cast<float>(y0 + 0.05), 0.1f * (i + 1));
+    s.lines.push_back(line);
+    return s;
+  };
+  HeightMapParams p;
+  p.origin_x = 0.0;
+  p.origin_y = -1.0;
+  p.width = 200;
+  p.height = 200;
+  HeightMapGrid reused, fresh;
+  buildHeightMap(floorSweep(0.1, 1.9, -0.9, 0.9, 0.0), p, reused);
+  const int known_first = static_cast<int>(std::count_if(reused.heights.begin(), reused.heights.end(), [](float h) { return !std::isnan(h); }));
+  const SweepResult second = floorSweep(0.5, 1.0, -0.2, 0.3, 0.1);
+  buildHeightMap(second, p, reused);
+  buildHeightMap(second, p, fresh);
+  ASSERT_EQ(reused.heights.size(), fresh.heights.size());
+  int differ = 0, known = 0;
+  for (std::size_t c = 0; c < fresh.heights.size(); ++c) {
+    const bool same_h = (std::isnan(reused.heights[c]) && std::isnan(fresh.heights[c])) || reused.heights[c] == fresh.heights[c];
+    differ += !same_h || reused.classes[c] != fresh.classes[c] || reused.plane_ids[c] != fresh.plane_ids[c];
+    known += !std::isnan(fresh.heights[c]);
+  }
+  EXPECT_GT(known_first, 30000);
+  EXPECT_GT(known, 2000);
+  EXPECT_LT(known, 3000);
+  EXPECT_EQ(differ, 0);
+  EXPECT_EQ(reused.box_x0, fresh.box_x0);
+  EXPECT_EQ(reused.box_y1, fresh.box_y1);
+}
