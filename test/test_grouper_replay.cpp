@@ -2,13 +2,20 @@
 // recording (grouper_replay.test: replay.launch) or from the emulated head
 // live (sim_pipeline.test: sim.launch), match the scene: floor at 0, treads at
 // 0.15, 0.30, 0.45, 0.60 m (within 1 cm), risers, and the height map's cells.
+// With ~check_grid (namespaced_head.test: the head under a namespace, the
+// laser given by urg_node's parameter names): scans come in the namespace,
+// nothing in the root, and the OccupancyGrid's cells agree with the height
+// map's classes.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <mutex>
 
+#include <nav_msgs/OccupancyGrid.h>
+#include <ros/master.h>
 #include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
 
 #include "tilt_laser_perception/HeightMap.h"
 #include "tilt_laser_perception/PlanePolygonArray.h"
@@ -31,9 +38,9 @@ void onMap(const HeightMap::ConstPtr& h) {
 }
 
 double cell(const HeightMap& map, double x, double y, int* cls = nullptr) {
-  const int ix = static_cast<int>(std::floor((x - map.origin.position.x) / map.resolution));
-  const int iy = static_cast<int>(std::floor((y - map.origin.position.y) / map.resolution));
-  const std::size_t i = static_cast<std::size_t>(iy) * map.width + ix;
+  const int ix = static_cast<int>(std::floor((x - map.info.origin.position.x) / map.info.resolution));
+  const int iy = static_cast<int>(std::floor((y - map.info.origin.position.y) / map.info.resolution));
+  const std::size_t i = static_cast<std::size_t>(iy) * map.info.width + ix;
   if (cls) *cls = map.classes.at(i);
   return map.heights.at(i);
 }
@@ -98,7 +105,7 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
   EXPECT_GE(most_risers, 3) << "no sweep found three of the four risers";
   for (int k = 0; k < 4; ++k) EXPECT_GE(tread_seen[k], 1) << "tread " << k + 1 << " never found within 1 cm";
   for (const HeightMap& map : maps) {
-    EXPECT_NEAR(map.resolution, 0.01, 1e-6);
+    EXPECT_NEAR(map.info.resolution, 0.01, 1e-6);
     // Cells (x, y, true height, class) on the floor, the four treads and the box.
     const double cells[6][4] = {{0.95, -0.3, 0.0, HeightMap::CLASS_FLOOR}, {1.35, 0.0, 0.15, HeightMap::CLASS_STEP},
                                 {1.65, 0.0, 0.30, HeightMap::CLASS_STEP},  {1.95, 0.0, 0.45, HeightMap::CLASS_STEP},
@@ -113,6 +120,74 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
     }
     EXPECT_GE(right, 5) << "the height map is wrong at more than one of six cells";
   }
+}
+
+TEST(GrouperReplay, InItsNamespaceTheOccupancyGridAgreesWithTheHeightMap) {
+  bool check = false;
+  ros::param::param("~check_grid", check, check);
+  if (!check) GTEST_SKIP() << "~check_grid not set";
+  ros::NodeHandle nh;
+  std::mutex gm;
+  std::vector<HeightMap> hmaps;
+  std::vector<nav_msgs::OccupancyGrid> grids;
+  int scans = 0;
+  ros::Subscriber s1 = nh.subscribe<HeightMap>("height_map", 10, [&](const HeightMap::ConstPtr& h) {
+    std::lock_guard<std::mutex> l(gm);
+    hmaps.push_back(*h);
+  });
+  ros::Subscriber s2 = nh.subscribe<nav_msgs::OccupancyGrid>("height_map_grid", 10,
+                                                             [&](const nav_msgs::OccupancyGrid::ConstPtr& g) {
+                                                               std::lock_guard<std::mutex> l(gm);
+                                                               grids.push_back(*g);
+                                                             });
+  ros::Subscriber s3 = nh.subscribe<sensor_msgs::LaserScan>("scan", 10, [&](const sensor_msgs::LaserScan::ConstPtr&) {
+    std::lock_guard<std::mutex> l(gm);
+    ++scans;
+  });
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(60.0);
+  int matched = 0;
+  while (ros::ok() && ros::WallTime::now() < end && matched < 2) {
+    ros::spinOnce();
+    ros::WallDuration(0.05).sleep();
+    std::lock_guard<std::mutex> l(gm);
+    matched = 0;
+    for (const auto& g : grids)
+      for (const auto& h : hmaps) matched += g.header.stamp == h.header.stamp;
+  }
+  std::lock_guard<std::mutex> l(gm);
+  EXPECT_GT(scans, 40) << "scans in " << nh.getNamespace();
+  ASSERT_GE(matched, 2) << grids.size() << " grids, " << hmaps.size() << " height maps with no common stamp";
+  for (const auto& g : grids)
+    for (const auto& h : hmaps) {
+      if (g.header.stamp != h.header.stamp) continue;
+      EXPECT_EQ(g.header.frame_id, h.header.frame_id);
+      EXPECT_EQ(g.info.width, h.info.width);
+      EXPECT_EQ(g.info.height, h.info.height);
+      EXPECT_FLOAT_EQ(g.info.resolution, h.info.resolution);
+      EXPECT_DOUBLE_EQ(g.info.origin.position.x, h.info.origin.position.x);
+      ASSERT_EQ(g.data.size(), h.classes.size());
+      std::size_t known = 0, wrong = 0, obstacles = 0;
+      for (std::size_t i = 0; i < g.data.size(); ++i) {
+        const int want = h.classes[i] == HeightMap::CLASS_FLOOR      ? 0
+                         : h.classes[i] == HeightMap::CLASS_STEP     ? 50
+                         : h.classes[i] == HeightMap::CLASS_OBSTACLE ? 100
+                                                                     : -1;
+        wrong += g.data[i] != want;
+        known += want >= 0;
+        obstacles += want == 100;
+      }
+      EXPECT_EQ(wrong, 0u);
+      EXPECT_GT(known, g.data.size() / 10) << "the stairs fill more than a tenth of the map";
+      std::printf("grid at %.3f: %zu of %zu cells known, %zu obstacles, agreeing with the height map\n",
+                  g.header.stamp.toSec(), known, g.data.size(), obstacles);
+    }
+  // Everything the head publishes is in the namespace: nothing of it in the root.
+  ros::master::V_TopicInfo topics;
+  ASSERT_TRUE(ros::master::getTopics(topics));
+  const std::string ns = nh.getNamespace();
+  for (const auto& t : topics)
+    for (const char* name : {"/scan", "/planes", "/height_map", "/height_map_grid", "/joint_states", "/scan_segments"})
+      EXPECT_NE(t.name, name) << "published in the root namespace, not in " << ns;
 }
 
 int main(int argc, char** argv) {

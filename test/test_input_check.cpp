@@ -10,6 +10,7 @@
 
 #include "tilt_laser_perception/core/input_check.hpp"
 #include "tilt_laser_perception/core/joint_hold.hpp"
+#include "tilt_laser_perception/core/load_count.hpp"
 #include "tilt_laser_perception/core/scan_split.hpp"
 
 using namespace tilt_laser_perception::core;
@@ -173,4 +174,18 @@ TEST(JointHold, HoldsWhileNobodyElsePublishesTheJoints) {
   EXPECT_TRUE(hold.holding(10.51));  // silent for longer than the timeout: hold again
   hold.seen(11.0);
   EXPECT_FALSE(hold.holding(11.1));
+}
+
+// Loads are counted per name in the process; the process's uptime grows.
+TEST(LoadCount, CountsEachNameInTheProcess) {
+  EXPECT_EQ(countLoad("test/a"), 1);
+  EXPECT_EQ(countLoad("test/a"), 2);
+  EXPECT_EQ(countLoad("test/b"), 1);
+  EXPECT_EQ(countLoad("test/a"), 3);
+  const double t0 = processUptime();
+  EXPECT_GE(t0, 0.0);
+  EXPECT_LT(t0, 3600.0);
+  volatile double x = 0.0;
+  for (int i = 0; i < 100000; ++i) x = x + std::sqrt(static_cast<double>(i));
+  EXPECT_GE(processUptime(), t0);
 }

@@ -33,9 +33,9 @@ SPEED, START_X, DURATION = 0.3, -1.5, 8.0
 
 def same_maps(a, b):
     """Equal heights (NaN where NaN), plane ids and classes on the same cells."""
-    if (a.width, a.height, a.resolution) != (b.width, b.height, b.resolution):
-        return f"{a.width}x{a.height} live, {b.width}x{b.height} replayed"
-    if abs(a.origin.position.x - b.origin.position.x) > 1e-6 or abs(a.origin.position.y - b.origin.position.y) > 1e-6:
+    if (a.info.width, a.info.height, a.info.resolution) != (b.info.width, b.info.height, b.info.resolution):
+        return f"{a.info.width}x{a.info.height} live, {b.info.width}x{b.info.height} replayed"
+    if abs(a.info.origin.position.x - b.info.origin.position.x) > 1e-6 or abs(a.info.origin.position.y - b.info.origin.position.y) > 1e-6:
         return "the maps lie elsewhere"
     bad = sum(1 for h, g in zip(a.heights, b.heights)
               if math.isnan(h) != math.isnan(g) or (not math.isnan(h) and abs(h - g) > 1e-5))
@@ -147,31 +147,31 @@ def test_a_walk_replayed_in_odom():
     # The fused map is centred on the robot and knows the ground in front of its feet.
     last = maps[-1]
     x = base_x(last.header.stamp.to_sec() - t0)
-    r = last.resolution
-    centre_x = last.origin.position.x + 0.5 * last.width * r
+    r = last.info.resolution
+    centre_x = last.info.origin.position.x + 0.5 * last.info.width * r
     assert abs(centre_x - x) < 0.02, f"map centre {centre_x:.3f}, robot at {x:.3f}"
     known = total = 0
-    for iy in range(last.height):
-        y = last.origin.position.y + (iy + 0.5) * r
+    for iy in range(last.info.height):
+        y = last.info.origin.position.y + (iy + 0.5) * r
         if abs(y) > 0.5:
             continue
-        for ix in range(last.width):
-            cx = last.origin.position.x + (ix + 0.5) * r
+        for ix in range(last.info.width):
+            cx = last.info.origin.position.x + (ix + 0.5) * r
             if x <= cx <= x + 1.0:
                 total += 1
-                known += not math.isnan(last.heights[iy * last.width + ix])
+                known += not math.isnan(last.heights[iy * last.info.width + ix])
     print(f"{len(planes)} sweeps; the 1 m in front of the feet {known / total:.1%} known")
     assert known / total >= 0.9, f"{known} of {total} cells in front of the feet known"
 
     # Each known cell's uncertainty and age: the ground in front of the feet
     # was seen sweeps ago (the head cannot see it from here), and it is less
     # certain than when it was seen (the distance walked since).
-    n = last.width * last.height
+    n = last.info.width * last.info.height
     assert len(last.sigmas) == n and len(last.ages) == n
-    front = [iy * last.width + ix for iy in range(last.height) for ix in range(last.width)
-             if abs(last.origin.position.y + (iy + 0.5) * r) < 0.3
-             and x <= last.origin.position.x + (ix + 0.5) * r <= x + 0.3
-             and not math.isnan(last.heights[iy * last.width + ix])]
+    front = [iy * last.info.width + ix for iy in range(last.info.height) for ix in range(last.info.width)
+             if abs(last.info.origin.position.y + (iy + 0.5) * r) < 0.3
+             and x <= last.info.origin.position.x + (ix + 0.5) * r <= x + 0.3
+             and not math.isnan(last.heights[iy * last.info.width + ix])]
     assert front
     assert all(last.ages[c] > 0.5 for c in front), "cells right in front of the feet seen in the last sweep"
     assert all(0.005 < last.sigmas[c] < 0.05 for c in front)

@@ -43,6 +43,14 @@ FusedHeightMap::FusedHeightMap(const HeightMapParams& cells, const FusedMapParam
   clear();
 }
 
+void FusedHeightMap::setClassification(const HeightMapParams& p) {
+  HeightMapParams& g = grid_.params;
+  g.max_slope_deg = p.max_slope_deg;
+  g.floor_tolerance = p.floor_tolerance;
+  g.obstacle_min_height = p.obstacle_min_height;
+  g.max_step_height = p.max_step_height;
+}
+
 void FusedHeightMap::clear() {
   const std::size_t cells = static_cast<std::size_t>(grid_.params.width) * grid_.params.height;
   grid_.heights.assign(cells, kNaN);

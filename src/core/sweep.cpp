@@ -83,6 +83,8 @@ void SweepAssembler::setParams(const SweepParams& p) {
   grouper_.setParams(p.grouping);
 }
 
+void SweepAssembler::setGroupingParams(const GroupingParams& g) { next_grouping_ = g; }
+
 void SweepAssembler::restart() {
   joints_ = JointBuffer(p_.max_joint_gap);
   queue_.clear();
@@ -198,6 +200,11 @@ int SweepAssembler::missingBetween(double a, double b) const {
 }
 
 void SweepAssembler::beginSweep(double start) {
+  if (next_grouping_) {
+    p_.grouping = *next_grouping_;
+    grouper_.setParams(p_.grouping);
+    next_grouping_.reset();
+  }
   in_sweep_ = true;
   sweep_last_mid_ = start - 0.5 * linePeriod();  // a line just before the start: the first one's middle is after it
   current_ = SweepResult();
@@ -508,6 +515,8 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       if (in_sweep_) takeLine(mid, false);
     } else if (in_sweep_) {
       takeLine(mid, process(in, motion));
+    } else {
+      ++counters_.lines_outside_sweeps;
     }
     queue_.pop_front();
   }
@@ -531,6 +540,16 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
   // show the reversal that ends the sweep in progress.
   if (in_sweep_ && direction_ != 0 && last_joint_t_ > extreme_t_) waiting_ = Waiting::Joints;
   return false;
+}
+
+bool SweepAssembler::flush(double now, SweepResult& out) {
+  if (poll(now + p_.max_wait + 1.0, out)) return true;
+  if (!in_sweep_) return false;
+  if (current_.lines.empty()) {  // the last reversal was the end: nothing after it
+    in_sweep_ = false;
+    return false;
+  }
+  return finishSweep(sweep_last_mid_ + 0.5 * linePeriod(), out);
 }
 
 Eigen::Vector3d meanOrigin(const SweepResult& sweep) {

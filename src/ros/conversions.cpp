@@ -234,18 +234,28 @@ void toMsg(const std::vector<core::Plane>& planes, PlanePolygonArray& msg) {
   }
 }
 
+void toMsg(const core::HeightMapGrid& g, nav_msgs::MapMetaData& info) {
+  info.resolution = static_cast<float>(g.params.resolution);
+  info.width = static_cast<uint32_t>(g.params.width);
+  info.height = static_cast<uint32_t>(g.params.height);
+  info.origin.position.x = g.params.origin_x;
+  info.origin.position.y = g.params.origin_y;
+  info.origin.position.z = 0.0;
+  info.origin.orientation.w = 1.0;
+}
+
 void toMsg(const core::HeightMapGrid& g, HeightMap& msg) {
-  msg.resolution = static_cast<float>(g.params.resolution);
-  msg.width = static_cast<uint32_t>(g.params.width);
-  msg.height = static_cast<uint32_t>(g.params.height);
-  msg.origin.position.x = g.params.origin_x;
-  msg.origin.position.y = g.params.origin_y;
-  msg.origin.position.z = 0.0;
-  msg.origin.orientation.w = 1.0;
+  toMsg(g, msg.info);
   msg.heights = g.heights;
   msg.plane_ids = g.plane_ids;
   msg.classes.resize(g.classes.size());
   for (std::size_t i = 0; i < g.classes.size(); ++i) msg.classes[i] = static_cast<uint8_t>(g.classes[i]);
+}
+
+void toOccupancyGrid(const core::HeightMapGrid& g, nav_msgs::OccupancyGrid& msg) {
+  toMsg(g, msg.info);
+  msg.data.resize(g.classes.size());
+  for (std::size_t i = 0; i < g.classes.size(); ++i) msg.data[i] = core::occupancyOfClass(g.classes[i]);
 }
 
 void heightMapCloud(const core::HeightMapGrid& g, sensor_msgs::PointCloud2& cloud) {

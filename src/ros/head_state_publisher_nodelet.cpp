@@ -69,7 +69,7 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
   void onInit() override {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
-    health_.init(getName(), pnh);
+    health_.init(getName());
     pnh.param("max_stamp_age", stamp_limits_.max_age, stamp_limits_.max_age);
     pnh.param("max_stamp_ahead", stamp_limits_.max_ahead, stamp_limits_.max_ahead);
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());

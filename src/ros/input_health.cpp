@@ -2,9 +2,11 @@
 
 #include <malloc.h>
 
+#include "tilt_laser_perception/core/load_count.hpp"
+
 namespace tilt_laser_perception {
 
-void InputHealth::init(const std::string& name, ros::NodeHandle& pnh, double window) {
+void InputHealth::init(const std::string& name, double window) {
   // A message far larger than the sensor gives (a scan of 1,000,000 ranges,
   // 4 MB) is refused, but roscpp has already read it into memory. glibc
   // raises its mmap threshold to the largest block freed, so after such a
@@ -17,19 +19,19 @@ void InputHealth::init(const std::string& name, ros::NodeHandle& pnh, double win
   name_ = name;
   window_ = window;
   refused_ = core::ReasonCounts(window);
-  loads_ = countLoad(pnh, name);
+  loads_ = countLoad(name);
   loaded_at_ = ros::WallTime::now();
 }
 
-int countLoad(ros::NodeHandle& pnh, const std::string& name) {
-  // The parameter server outlives a nodelet manager: a count above 1 means
-  // this nodelet was loaded again (the manager died and was respawned).
-  int loads = 0;
-  pnh.param("loads", loads, 0);
-  ++loads;
-  pnh.setParam("loads", loads);
-  if (loads > 1) ROS_WARN("%s: loaded for the %d. time (restarted)", name.c_str(), loads);
+int countLoad(const std::string& name) {
+  const int loads = core::countLoad(name);
+  if (loads > 1) ROS_WARN("%s: loaded for the %d. time in this process", name.c_str(), loads);
   return loads;
+}
+
+void addLoadStatus(diagnostic_updater::DiagnosticStatusWrapper& stat, int loads) {
+  stat.add("loads in this process (1: never reloaded)", loads);
+  stat.addf("process up [s]", "%.1f", core::processUptime());
 }
 
 void InputHealth::refuse(const std::string& reason, const std::string& detail, unsigned long k) {
@@ -95,11 +97,11 @@ void InputHealth::report(diagnostic_updater::DiagnosticStatusWrapper& stat, core
                                          DiagnosticStatus::STALE};
   std::string summary = why;
   if (loads_ > 1 && (ros::WallTime::now() - loaded_at_).toSec() < 60.0) {
-    summary = "restarted (load " + std::to_string(loads_) + "); " + why;
+    summary = "reloaded (load " + std::to_string(loads_) + " in this process); " + why;
     if (level == core::Health::Ok) level = core::Health::Warn;
   }
   stat.summary(kLevel[static_cast<int>(level)], summary);
-  stat.add("loads (1: never restarted)", loads_);
+  addLoadStatus(stat, loads_);
   const double t = now();
   stat.add("inputs dropped (last " + std::to_string(int(window_)) + " s)", refused_.recent(t));
   stat.add("inputs dropped (total)", refused_.total());

@@ -16,7 +16,7 @@ ScanSplitterNodelet::~ScanSplitterNodelet() { diagnostics_timer_.stop(); }
 void ScanSplitterNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
-  health_.init(getName(), pnh);
+  health_.init(getName());
   core::ScanLimits limits;
   int max_ranges = static_cast<int>(limits.max_ranges);
   pnh.param("max_ranges", max_ranges, max_ranges);

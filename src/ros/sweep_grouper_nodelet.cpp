@@ -100,7 +100,7 @@ void SweepGrouperNodelet::onInit() {
     NODELET_ERROR("~stale_after must be in [1, 600] s: using 5");
     stale_after_ = 5.0;
   }
-  health_.init(getName(), pnh);
+  health_.init(getName());
   if (!(map_params_.resolution > 0.001 && size_x > 0 && size_y > 0 && size_x / map_params_.resolution <= 4000 &&
         size_y / map_params_.resolution <= 4000)) {
     NODELET_ERROR("invalid height map size or resolution (at most 4000 x 4000 cells): using 4 m x 4 m at 1 cm");
@@ -128,6 +128,7 @@ void SweepGrouperNodelet::onInit() {
   planes_pub_ = nh.advertise<PlanePolygonArray>("planes", 2);
   if (fuse_) terrain_pub_ = nh.advertise<PlanePolygonArray>("terrain_planes", 2, true);
   map_pub_ = nh.advertise<HeightMap>("height_map", 2);
+  grid_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("height_map_grid", 2);
   map_cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("height_map_cloud", 2);
   sweep_cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("sweep_cloud", 2);
   edges_pub_ = nh.advertise<sensor_msgs::PointCloud2>("edge_points", 2);
@@ -139,6 +140,9 @@ void SweepGrouperNodelet::onInit() {
   diag_timer_ = nh.createTimer(ros::Duration(0.5), [this](const ros::TimerEvent&) { diagnostics_->update(); });
 
   setupChain();
+  // After the parameters above: the server takes the same ones from the parameter server and calls back at once.
+  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<SweepGrouperConfig>>(reconfigure_mutex_, pnh);
+  reconfigure_server_->setCallback([this](SweepGrouperConfig& c, uint32_t level) { reconfigure(c, level); });
   // The scans and their splits are checked before they are paired: the
   // synchronizer holds only messages that passed (bounded in size).
   sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>>(50);
@@ -158,6 +162,39 @@ void SweepGrouperNodelet::onInit() {
     std::lock_guard<std::mutex> l(mutex_);
     guarded("poll", [&] { pollSweeps(); });
   });
+}
+
+void SweepGrouperNodelet::reconfigure(SweepGrouperConfig& c, uint32_t) {
+  std::lock_guard<std::mutex> l(mutex_);
+  core::SweepParams next = sweep_params_;
+  core::GroupingParams& g = next.grouping;
+  g.dist_min = c.plane_dist_min;
+  g.dist_ratio = c.plane_dist_ratio;
+  g.angle_deg = c.plane_angle_deg;
+  g.merge_angle_deg = c.merge_angle_deg;
+  g.min_segments = c.min_plane_segments;
+  g.min_area = c.min_plane_area;
+  g.crease_reach = c.crease_reach;
+  g.crease_margin = c.crease_margin;
+  if (const std::string problem = next.validate(); !problem.empty()) {
+    NODELET_ERROR("invalid grouping settings (%s): keeping the previous ones", problem.c_str());
+    const core::GroupingParams& old = sweep_params_.grouping;
+    c.plane_dist_min = old.dist_min;
+    c.plane_dist_ratio = old.dist_ratio;
+    c.plane_angle_deg = old.angle_deg;
+    c.merge_angle_deg = old.merge_angle_deg;
+    c.min_plane_segments = old.min_segments;
+    c.min_plane_area = old.min_area;
+    c.crease_reach = old.crease_reach;
+    c.crease_margin = old.crease_margin;
+  } else {
+    sweep_params_ = next;
+    if (assembler_) assembler_->setGroupingParams(g);
+  }
+  map_params_.max_slope_deg = c.map_max_slope_deg;
+  map_params_.max_step_height = c.map_max_step_height;
+  map_params_.obstacle_min_height = c.map_obstacle_min_height;
+  if (fused_) fused_->setClassification(map_params_);
 }
 
 template <class F>
@@ -411,9 +448,17 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   auto map = boost::make_shared<HeightMap>();
   map->header = header;
   toMsg(grid, *map);
+  map->info.map_load_time = header.stamp;
   if (fused_) fused_->uncertainty(sweep.end, travelled_, map->sigmas, map->ages);
   planes_pub_.publish(planes);
   map_pub_.publish(map);
+  if (grid_pub_.getNumSubscribers() > 0) {
+    auto occupancy = boost::make_shared<nav_msgs::OccupancyGrid>();
+    occupancy->header = header;
+    toOccupancyGrid(grid, *occupancy);
+    occupancy->info.map_load_time = header.stamp;
+    grid_pub_.publish(occupancy);
+  }
   if (fused_) {
     auto terrain = boost::make_shared<PlanePolygonArray>();
     terrain->header = header;

@@ -47,26 +47,49 @@ void TiltLaserDriverNodelet::log(int level, const std::string& msg) {
   else NODELET_ERROR("%s", msg.c_str());
 }
 
+namespace {
+/// Reads `name`, or else the parameter's old name `old` with a warning once, or else the default.
+template <typename T>
+void paramRenamed(ros::NodeHandle& pnh, const std::string& name, const std::string& old, T& value, const T& fallback) {
+  if (pnh.getParam(name, value)) return;
+  if (pnh.getParam(old, value)) {
+    ROS_WARN("%s: ~%s is read as ~%s (urg_node's name); please rename it", pnh.getNamespace().c_str(), old.c_str(),
+             name.c_str());
+    return;
+  }
+  value = fallback;
+}
+}  // namespace
+
 void TiltLaserDriverNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
-  loads_ = countLoad(pnh, getName());
+  loads_ = countLoad(getName());
   loaded_at_ = ros::WallTime::now();
 
   driver::LaserDriverOptions lo;
-  pnh.param<std::string>("laser_ip", lo.host, "192.168.0.10");
-  pnh.param("laser_port", lo.port, 10940);
-  pnh.param<std::string>("laser_serial_device", lo.serial_device, "");
+  // urg_node's names (REP 138), the old ones still read with a warning.
+  paramRenamed(pnh, "ip_address", "laser_ip", lo.host, std::string("192.168.0.10"));
+  paramRenamed(pnh, "ip_port", "laser_port", lo.port, 10940);
+  paramRenamed(pnh, "serial_port", "laser_serial_device", lo.serial_device, std::string());
   pnh.param("angle_min", lo.client.angle_min, -2.35619449);
   pnh.param("angle_max", lo.client.angle_max, 2.35619449);
   pnh.param("cluster", lo.client.cluster, 1);
   pnh.param("skip", lo.client.skip, 0);
-  pnh.param("intensity", lo.client.intensity, false);
+  paramRenamed(pnh, "publish_intensity", "intensity", lo.client.intensity, false);
   // ~echo: first (MD/ME, any UTM-30LX), last or strongest (ND/NE, the -EW's
-  // multi-echo), multi (ND/NE: every echo on `echoes`, `scan` from ~scan_echo).
+  // multi-echo): the echo `scan` carries. ~publish_multiecho (urg_node's):
+  // every echo on `echoes` too. The old ~echo: multi with ~scan_echo still works.
   std::string echo, scan_echo;
+  bool publish_multiecho = false;
   pnh.param<std::string>("echo", echo, "first");
-  pnh.param<std::string>("scan_echo", scan_echo, "first");
+  pnh.param<std::string>("scan_echo", scan_echo, echo == "multi" ? "first" : echo);
+  pnh.param("publish_multiecho", publish_multiecho, false);
+  if (echo == "multi") {
+    NODELET_WARN("~echo: multi is now ~publish_multiecho: true (with ~echo the echo scan carries)");
+    publish_multiecho = true;
+  }
+  if (publish_multiecho) echo = "multi";
   multi_echo_out_ = echo == "multi";
   if (!multi_echo_out_ && !scip::parseEchoChoice(echo, scan_echo_)) {
     NODELET_ERROR("~echo must be first, last, strongest or multi, got '%s': using first", echo.c_str());
@@ -259,7 +282,7 @@ void TiltLaserDriverNodelet::diagnoseLaser(diagnostic_updater::DiagnosticStatusW
   if (!s.streaming)
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::ERROR, "not streaming: %s", s.last_error.c_str());
   else if (loads_ > 1 && (ros::WallTime::now() - loaded_at_).toSec() < 60.0)
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "restarted (load %d)", loads_);
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "reloaded (load %d in this process)", loads_);
   else if (delayed + impossible + slow > 0)
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                   "replies delayed: %lu scans late, %lu stamped after they arrived, %lu slow clock readings "
@@ -270,7 +293,7 @@ void TiltLaserDriverNodelet::diagnoseLaser(diagnostic_updater::DiagnosticStatusW
   else
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "streaming");
   stat.add("echoes", s.multi_echo ? "multi-echo (ND/NE)" : "single (MD/ME)");
-  stat.add("loads (1: never restarted)", loads_);
+  addLoadStatus(stat, loads_);
   stat.add("scans arrived late (last 10 s)", delayed);
   stat.add("scans stamped after they arrived (last 10 s)", impossible);
   stat.add("clock readings left out (round trip too long)", s.clock_rejected);

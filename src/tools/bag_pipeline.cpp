@@ -1,5 +1,7 @@
 #include "bag_pipeline.hpp"
 
+#include <algorithm>
+
 #include <geometry_msgs/TransformStamped.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -69,8 +71,13 @@ bool runBagPipeline(const BagPipelineOptions& o, const std::function<void(double
       const bool is_static = m.getTopic() == "/tf_static";
       for (const auto& tr : t->transforms) tf.setTransform(tr, "bag", is_static);
     } else if (const auto js = m.instantiate<sensor_msgs::JointState>()) {
+      if (result.joint_names.size() < 8)
+        for (const auto& n : js->name)
+          if (std::find(result.joint_names.begin(), result.joint_names.end(), n) == result.joint_names.end())
+            result.joint_names.push_back(n);
       for (std::size_t i = 0; i < js->name.size() && i < js->position.size(); ++i)
         if (js->name[i] == o.joint) {
+          ++result.joint_states;
           const double q = js->position[i] + o.calibration.joint_offset;
           if (on_joint) on_joint(js->header.stamp.toSec(), q);
           assembler.addJoint(js->header.stamp.toSec(), q);
@@ -89,13 +96,43 @@ bool runBagPipeline(const BagPipelineOptions& o, const std::function<void(double
       if (on_sweep) on_sweep(done);
     }
   }
-  while (assembler.poll(last + 10.0, done)) {
+  // The recording's end closes the sweep in progress: it has no reversal after it.
+  const unsigned long before = assembler.counters().sweeps;
+  while (assembler.flush(last, done)) {
     ++result.sweeps;
+    result.closed_by_end = true;
     if (on_sweep) on_sweep(done);
   }
+  if (assembler.counters().sweeps == before) result.closed_by_end = false;
   result.counters = assembler.counters();
   result.last_warning = assembler.lastWarning();
   return true;
+}
+
+std::string noSweepReason(const BagPipelineOptions& o, const BagPipelineResult& r) {
+  if (r.sweeps > 0) return "";
+  const core::SweepCounters& c = r.counters;
+  if (r.scans == 0) return "the recording holds no sensor_msgs/LaserScan";
+  if (r.joint_states == 0) {
+    std::string names;
+    for (const auto& n : r.joint_names) names += (names.empty() ? "" : ", ") + n;
+    return "no joint state names the tilt joint '" + o.joint + "' (--joint; the recording names: " +
+           (names.empty() ? "no joints" : names) + ")";
+  }
+  if (c.lines_no_joint >= c.lines / 2 + 1)
+    return std::to_string(c.lines_no_joint) + " of " + std::to_string(c.lines) +
+           " scan lines had no joint states around their beams (the tilt was not recorded while scanning?)";
+  if (c.lines_no_pose >= c.lines / 2 + 1)
+    return std::to_string(c.lines_no_pose) + " of " + std::to_string(c.lines) + " scan lines had no pose of '" +
+           o.frame + "' on /tf (--frame)";
+  if (c.reversals == 0)
+    return "the tilt never reversed, so no sweep began (" + std::to_string(c.lines_outside_sweeps) +
+           " lines outside a sweep); a recording that starts its only sweep from rest needs a lead-in "
+           "(import_tilt_bag.py writes one)";
+  if (c.sweeps_dropped > 0)
+    return std::to_string(c.sweeps_dropped) + " sweep(s) dropped: " + r.last_warning;
+  return "no sweep finished (" + std::to_string(c.lines_outside_sweeps) + " lines outside a sweep; " +
+         r.last_warning + ")";
 }
 
 }  // namespace tools

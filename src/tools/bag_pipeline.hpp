@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "tilt_laser_perception/core/calibration.hpp"
 #include "tilt_laser_perception/core/sweep.hpp"
@@ -21,6 +22,9 @@ struct BagPipelineOptions {
 
 struct BagPipelineResult {
   int scans = 0, sweeps = 0;
+  int joint_states = 0;                 ///< joint states of the tilt joint
+  std::vector<std::string> joint_names; ///< the joints the recording names (the first few)
+  bool closed_by_end = false;           ///< the last sweep was closed by the recording's end, not a reversal
   core::SweepCounters counters;
   std::string last_warning;
   core::TiltChain chain;          ///< the URDF's, calibration applied
@@ -32,6 +36,9 @@ struct BagPipelineResult {
 bool runBagPipeline(const BagPipelineOptions& o, const std::function<void(double t, double q)>& on_joint,
                     const std::function<void(const core::SweepResult&)>& on_sweep, BagPipelineResult& result,
                     std::string& error);
+
+/// Why a run gave no sweep, in words a user can act on (empty when it gave one).
+std::string noSweepReason(const BagPipelineOptions& o, const BagPipelineResult& r);
 
 /// Parses the options shared by the tools (--urdf --frame --joint --laser --calibration FILE) at argv[i];
 /// false if not one; throws std::runtime_error on a calibration file it cannot read.

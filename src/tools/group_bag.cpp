@@ -9,13 +9,15 @@
 // the sweep (segment_cloud reads it).
 // --room judges each sweep as a room: the floor (the lowest level that holds
 // 2 % of the points, or the level that --floor-z Z [m] names, +-5 cm) and the
-// largest wall (the vertical plane with the most points within 5 cm, found by
-// a Hough vote over all points), each by the share of its points that the
-// largest plane on it holds.
+// largest wall (the vertical surface with the most points within 5 cm, found
+// by a Hough vote of the points in vertical planes), each by the share of its
+// points that the largest plane on it holds.
+// The recording's end closes the sweep in progress; a run without a sweep says why.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <map>
 #include <string>
@@ -41,14 +43,16 @@ struct Share {
   double fraction() const { return points ? static_cast<double>(best) / points : 0.0; }
 };
 
+/// The share of the points `on` selects that the plane holding most of them holds;
+/// points labelled `skip` are not the surface's.
 Share share(const core::SweepResult& sw, const std::vector<std::vector<int>>& label,
-            const std::function<bool(const Eigen::Vector3f&)>& on) {
+            const std::function<bool(const Eigen::Vector3f&)>& on, int skip = -3) {
   Share s;
   std::map<int, int> by_plane;
   for (std::size_t li = 0; li < sw.lines.size(); ++li)
     for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
       const Eigen::Vector3f& p = sw.lines[li].points[i];
-      if (!p.allFinite() || !on(p)) continue;
+      if (!p.allFinite() || label[li][i] == skip || !on(p)) continue;
       ++s.points;
       if (label[li][i] >= 0) ++by_plane[label[li][i]];
     }
@@ -65,7 +69,10 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
   for (const auto& l : sw.lines)
     for (const auto& p : l.points)
       if (p.allFinite()) pts.push_back(p);
-  if (pts.size() < 100) return;
+  if (pts.size() < 100) {
+    std::printf("  room: %zu points, too few to judge\n", pts.size());
+    return;
+  }
   // The floor: the level given, else the lowest 1 cm level holding 2 % of the
   // points (the surface the rig stands on, which need not be the room's floor).
   double floor_z = floor_at;
@@ -79,16 +86,25 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
       }
   }
   const Share floor = share(sw, label, [&](const Eigen::Vector3f& p) { return std::abs(p.z() - floor_z) < 0.05; });
-  // The largest wall: a Hough vote of the points above the floor over
-  // vertical planes x cos(a) + y sin(a) = d (1 degree, 2 cm).
+  // The largest wall: a Hough vote over vertical planes x cos(a) + y sin(a) = d
+  // (1 degree, 2 cm) by the points above the floor that lie in vertical planes
+  // (normals within 10 degrees of level). A dense table top crosses every
+  // vertical slab and must not vote; a point of a plane that is not vertical
+  // is not a wall's either.
+  std::vector<char> vertical(sw.planes.empty() ? 0 : 1 + std::max_element(sw.planes.begin(), sw.planes.end(),
+      [](const core::Plane& a, const core::Plane& b) { return a.id < b.id; })->id, 0);
+  for (const auto& pl : sw.planes) vertical[pl.id] = std::abs(pl.fit.normal.z()) < std::sin(10.0 * M_PI / 180.0);
+  const auto inVertical = [&](int l) { return l >= 0 && l < static_cast<int>(vertical.size()) && vertical[l]; };
   std::map<std::pair<int, int>, int> votes;
-  for (const auto& p : pts) {
-    if (!(p.z() > floor_z + 0.1)) continue;
-    for (int a = 0; a < 180; ++a) {
-      const double t = a * M_PI / 180.0;
-      ++votes[{a, static_cast<int>(std::floor((p.x() * std::cos(t) + p.y() * std::sin(t)) / 0.02))}];
+  for (std::size_t li = 0; li < sw.lines.size(); ++li)
+    for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
+      const Eigen::Vector3f& p = sw.lines[li].points[i];
+      if (!p.allFinite() || !(p.z() > floor_z + 0.1) || !inVertical(label[li][i])) continue;
+      for (int a = 0; a < 180; ++a) {
+        const double t = a * M_PI / 180.0;
+        ++votes[{a, static_cast<int>(std::floor((p.x() * std::cos(t) + p.y() * std::sin(t)) / 0.02))}];
+      }
     }
-  }
   std::pair<int, int> best{0, 0};
   int most = 0;
   for (const auto& [k, n] : votes)
@@ -96,10 +112,20 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
       most = n;
       best = k;
     }
+  if (most == 0) {
+    std::printf("  room: floor at z=%.3f m: %d points, %.1f %% in plane %d; no vertical plane above it\n", floor_z,
+                floor.points, 100.0 * floor.fraction(), floor.plane);
+    return;
+  }
   const double t = best.first * M_PI / 180.0, d = (best.second + 0.5) * 0.02;
-  const Share wall = share(sw, label, [&](const Eigen::Vector3f& p) {
+  // The wall's points: above the floor, within 5 cm of it, in no plane or a vertical one.
+  std::vector<std::vector<int>> wall_label = label;
+  for (auto& l : wall_label)
+    for (int& v : l)
+      if (v >= 0 && !inVertical(v)) v = -2;
+  const Share wall = share(sw, wall_label, [&](const Eigen::Vector3f& p) {
     return p.z() > floor_z + 0.1 && std::abs(p.x() * std::cos(t) + p.y() * std::sin(t) - d) < 0.05;
-  });
+  }, -2);
   std::printf("  room: floor at z=%.3f m: %d points, %.1f %% in plane %d; largest wall (normal %.0f deg, %.2f m): %d points, "
               "%.1f %% in plane %d\n",
               floor_z, floor.points, 100.0 * floor.fraction(), floor.plane, best.first * 1.0, d, wall.points,
@@ -184,6 +210,10 @@ int main(int argc, char** argv) {
     return 1;
   }
   const core::SweepCounters& c = r.counters;
+  if (r.closed_by_end)
+    std::printf("the recording's end closed sweep %d (no tilt reversal after it)\n", sweeps - 1);
+  const std::string why = tools::noSweepReason(o, r);
+  if (!why.empty()) std::printf("no sweep: %s\n", why.c_str());
   std::printf("%d scans, %d sweeps; lines %lu, without joint states %lu, out of order %lu, without pose %lu, bad %lu, "
               "joints out of order %lu; sweeps dropped %lu; %s\n",
               r.scans, sweeps, c.lines, c.lines_no_joint, c.lines_out_of_order, c.lines_no_pose, c.lines_bad,

@@ -60,6 +60,9 @@ class FusedHeightMap {
   /// Moves the grid so that its centre is at the cell of (x, y); the cells
   /// that stay in it keep their contents, the new ones are unknown.
   void recentre(double x, double y);
+  /// The cells' classification (slope, step and obstacle heights, floor
+  /// tolerance) for the sweeps to come; the grid's size and place stay.
+  void setClassification(const HeightMapParams& p);
   /// Fuses a sweep (planes and points in the map's frame) seen from `sensor`,
   /// finished at `stamp`, when the robot had walked `travelled` metres in
   /// all; then forgets what is older than forget_time.

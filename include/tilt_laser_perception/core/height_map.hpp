@@ -19,6 +19,18 @@ namespace core {
 
 enum class CellClass : std::uint8_t { Unknown = 0, Floor = 1, Step = 2, Obstacle = 3 };
 
+/// A class as an occupancy value (nav_msgs/OccupancyGrid, costmaps, rviz's
+/// Map display): unknown -1, floor 0 (free), step 50 (walkable with care:
+/// another level), obstacle 100.
+inline std::int8_t occupancyOfClass(CellClass c) {
+  switch (c) {
+    case CellClass::Floor: return 0;
+    case CellClass::Step: return 50;
+    case CellClass::Obstacle: return 100;
+    default: return -1;
+  }
+}
+
 struct HeightMapParams {
   double resolution = 0.01;   ///< [m/cell]
   double origin_x = -0.5;     ///< corner of cell (0, 0) in the map frame [m]

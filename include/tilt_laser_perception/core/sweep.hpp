@@ -13,6 +13,7 @@
 #include <deque>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -104,6 +105,8 @@ struct SweepResult {
 struct SweepCounters {
   unsigned long lines = 0, lines_no_joint = 0, lines_out_of_order = 0, lines_no_pose = 0, lines_bad = 0,
                 joints_out_of_order = 0, joints_bad = 0, sweeps = 0, sweeps_dropped = 0, reversals = 0, time_jumps = 0;
+  /// Lines put in 3D while no sweep was open (before the first reversal): kept in none.
+  unsigned long lines_outside_sweeps = 0;
   /// Everything dropped or restarted so far (a change asks for a warning).
   unsigned long problems() const {
     return lines_no_joint + lines_no_pose + lines_out_of_order + lines_bad + joints_out_of_order + joints_bad +
@@ -132,6 +135,8 @@ class SweepAssembler {
 
   SweepAssembler(const SweepParams& params, const TiltChain& chain, BasePose base_pose = nullptr);
   void setParams(const SweepParams& p);
+  /// Grouping settings for the sweeps to come: the sweep in progress keeps its own.
+  void setGroupingParams(const GroupingParams& g);
 
   /// Takes a joint sample. A time or angle that is not finite is dropped
   /// (joints_bad); a time before the latest is dropped as out of order,
@@ -143,6 +148,12 @@ class SweepAssembler {
   void addLine(LineInput line, double arrival);
   /// Processes what it can; true when a sweep finished (in `out`). Call until false.
   bool poll(double now, SweepResult& out);
+  /// The end of the input (a recording's end): the lines still queued are
+  /// taken or dropped as poll() would after max_wait, then the sweep in
+  /// progress is finished after its last line, as a reversal there would
+  /// (subject to min_lines and the dropped share, like any sweep). True when
+  /// a sweep finished (in `out`). Call until false.
+  bool flush(double now, SweepResult& out);
 
   const SweepCounters& counters() const { return counters_; }
   /// Lines waiting for joint states.
@@ -158,6 +169,7 @@ class SweepAssembler {
   const std::string& lastWarning() const { return warning_; }
 
  private:
+  std::optional<GroupingParams> next_grouping_;  ///< from setGroupingParams, taken when the next sweep begins
   /// The base's motion within a line: its pose at the middle beam, and the
   /// change of its position and orientation (rotation vector) from the first
   /// beam to the last, in the assembly frame (zero when it stands still).

@@ -34,6 +34,9 @@ void segmentMarkers(const ScanSegments& segments, visualization_msgs::MarkerArra
 #include <sensor_msgs/PointCloud2.h>
 #include <urdf/model.h>
 
+#include <nav_msgs/MapMetaData.h>
+#include <nav_msgs/OccupancyGrid.h>
+
 #include "tilt_laser_perception/HeightMap.h"
 #include "tilt_laser_perception/PlanePolygonArray.h"
 #include "tilt_laser_perception/core/height_map.hpp"
@@ -55,6 +58,10 @@ bool tiltChainFromUrdf(const urdf::Model& model, const std::string& joint, const
 void toMsg(const std::vector<core::Plane>& planes, PlanePolygonArray& msg);
 /// The height map as a message.
 void toMsg(const core::HeightMapGrid& grid, HeightMap& msg);
+/// The grid's size and place (map_load_time left to the caller).
+void toMsg(const core::HeightMapGrid& grid, nav_msgs::MapMetaData& info);
+/// The classes as occupancy (core::occupancyOfClass), for costmaps and rviz's Map display.
+void toOccupancyGrid(const core::HeightMapGrid& grid, nav_msgs::OccupancyGrid& msg);
 /// The height map as a cloud of its known cells (x y z rgb, coloured by height).
 void heightMapCloud(const core::HeightMapGrid& grid, sensor_msgs::PointCloud2& cloud);
 /// The sweep as an organized cloud: a row per scan line, a column per beam;

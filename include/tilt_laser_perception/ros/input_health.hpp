@@ -21,15 +21,17 @@
 
 namespace tilt_laser_perception {
 
-/// How many times this nodelet has been loaded since the launch (the launch
-/// files set "~loads" to 0; a respawned manager loads its nodelets again):
-/// reads, counts and stores "~loads". Above 1: a restart, logged as a warning.
-int countLoad(ros::NodeHandle& pnh, const std::string& name);
+/// How many times the nodelet `name` has been loaded in this process
+/// (core::countLoad); above 1 (unloaded and loaded again) logged as a warning.
+int countLoad(const std::string& name);
+/// The load count and the process's uptime in a nodelet's diagnostics: a
+/// manager that died and was respawned shows a young process.
+void addLoadStatus(diagnostic_updater::DiagnosticStatusWrapper& stat, int loads);
 
 class InputHealth {
  public:
-  /// `name` prefixes the log lines; the load count is kept in `pnh`'s "~loads".
-  void init(const std::string& name, ros::NodeHandle& pnh, double window = 10.0);
+  /// `name` prefixes the log lines and names the load count.
+  void init(const std::string& name, double window = 10.0);
   /// Counts k refused (or dropped) inputs and warns, at most every 5 s per reason.
   void refuse(const std::string& reason, const std::string& detail = std::string(), unsigned long k = 1);
   /// A joint state's own fields, for a reader of some of its joints: names

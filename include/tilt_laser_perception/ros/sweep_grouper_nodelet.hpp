@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <message_filters/time_synchronizer.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
@@ -26,6 +27,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "tilt_laser_perception/ScanSegments.h"
+#include "tilt_laser_perception/SweepGrouperConfig.h"
 #include "tilt_laser_perception/core/calibration.hpp"
 #include "tilt_laser_perception/core/fused_map.hpp"
 #include "tilt_laser_perception/core/height_map.hpp"
@@ -68,6 +70,10 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   void checkCalibration(const core::SweepResult* sweep);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void warn(const std::string& msg);
+  /// dynamic_reconfigure: the grouping's and the map's main settings, from the next sweep on.
+  void reconfigure(SweepGrouperConfig& config, uint32_t level);
+  std::unique_ptr<dynamic_reconfigure::Server<SweepGrouperConfig>> reconfigure_server_;
+  boost::recursive_mutex reconfigure_mutex_;
 
   std::mutex mutex_;
   // Declared before the subscriptions and the tf listener that use them: they outlive them.
@@ -105,6 +111,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>> sync_;
   ros::Subscriber scan_sub_, segments_sub_, joint_sub_;
   ros::Publisher planes_pub_, terrain_pub_, map_pub_, map_cloud_pub_, sweep_cloud_pub_, edges_pub_, markers_pub_;
+  ros::Publisher grid_pub_;  // height_map_grid: the classes as nav_msgs/OccupancyGrid
   ros::Timer poll_timer_, diag_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTime last_warn_;

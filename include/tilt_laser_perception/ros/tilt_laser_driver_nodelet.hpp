@@ -40,7 +40,7 @@ class TiltLaserDriverNodelet : public nodelet::Nodelet {
   // The laser's timing faults over the last seconds (the status counts since start).
   core::WindowCounter delayed_win_{10.0}, impossible_win_{10.0}, slow_reply_win_{10.0};
   unsigned long delayed_seen_ = 0, impossible_seen_ = 0, rejected_seen_ = 0;
-  int loads_ = 1;  // a respawned manager loads the driver again: said in the diagnostics for a minute
+  int loads_ = 1;  // loads in this process (core::countLoad): a reload is said in the diagnostics for a minute
   ros::WallTime loaded_at_;
   std::unique_ptr<driver::ServoDriver> servo_;
   ros::Publisher scan_pub_, joint_pub_, sweep_pub_, echoes_pub_;
