@@ -123,12 +123,17 @@ python3 "$here/scripts/dev/plot_heightmap.py" "$out/live" "$out/heightmap.png"
   echo "== Another rig's recording (import_tilt_bag.py, group_bag):"
   cat "$out/room_240.txt"
   echo
-  echo "Pictures: $out/heightmap.png (live), $out/rviz.png, $out/split.png, $out/heightmap_evaluate.png, $out/room_240.png (another rig),"
-  echo "  $out/heightmap_walk_fused.png and $out/heightmap_walk_sweep.png (a walk: the fused map, the last sweep's own)"
+  echo "Pictures:"
+  for p in heightmap.png:"the live height map and plane outlines" rviz.png:"rviz on the emulated head" \
+           split.png:"Figure 3 and a split scan" heightmap_evaluate.png:"the height map of evaluated sweeps" \
+           room_240.png:"another rig's recording (room_240)" heightmap_walk_fused.png:"a walk: the fused map" \
+           heightmap_walk_sweep.png:"a walk: the last sweep's own map"; do
+    if [ -s "$out/${p%%:*}" ]; then echo "  $out/${p%%:*}: ${p#*:}"; fi
+  done
 } > "$out/summary.txt"
 echo
 cat "$out/summary.txt"
 echo
-echo "results in $out: summary.txt, heightmap.png, rviz.png, split.png, figure3.csv, split_bag.txt, evaluate.csv"
+echo "results in $out: summary.txt and the pictures it lists"
 [ "$live_ok" -eq 0 ] || { echo "the live planes do not match the scene (see above)"; exit 1; }
 [ "$shot_ok" -eq 0 ] || { echo "the rviz screenshot misses a display (see above)"; exit 1; }

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <thread>
 
 #include "tilt_laser_perception/core/calibration.hpp"
 #include "tilt_laser_perception/sim/scene_eval.hpp"
@@ -166,4 +167,31 @@ TEST(CalibrationWatch, SaysWhenTheHeadWasKnocked) {
       EXPECT_NE(message.find("joint_offset +1.0"), std::string::npos) << message;
     }
   }
+}
+
+TEST(CalibrationMonitor, ChecksAStandingHeadOnAThreadAndStartsAgainWhenTheBaseMoves) {
+  // The grouper's live check as core gives it: a head whose horn slipped
+  // 1 degree, its window solved apart, the verdict taken by poll().
+  const core::TiltChain chain = sim::headChain(sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml"));
+  sim::RigErrors rig;
+  rig.joint_offset = 1.0 * kDeg;
+  sim::SceneEvalOptions o = options("stairs", 9, 41, rig);
+  core::CalibrationMonitor monitor(chain, core::CalibrationWatchOptions());
+  const Eigen::Isometry3d standing = Eigen::Isometry3d::Identity();
+  o.on_joint = [&](double t, double q) { monitor.addJoint(t, q); };
+  o.on_sweep = [&](const core::SweepResult& sw) { monitor.addSweep(sw, standing); };
+  sim::evaluateScene(o);
+  EXPECT_EQ(monitor.message(), "no check yet");
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!monitor.poll() && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(monitor.checks(), 1u);
+  EXPECT_TRUE(monitor.drifted()) << monitor.message();
+  EXPECT_NE(monitor.message().find("joint_offset +1.0"), std::string::npos) << monitor.message();
+  // A base 5 cm away: the robot walked; the next window waits for it to stand.
+  Eigen::Isometry3d moved = standing;
+  moved.translation().x() = 0.05;
+  monitor.addSweep(core::SweepResult(), moved);
+  EXPECT_EQ(monitor.message(), "waiting for the robot to stand still");
+  EXPECT_FALSE(monitor.poll());
 }

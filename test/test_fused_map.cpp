@@ -208,3 +208,35 @@ TEST(FusedHeightMap, ParametersAreValidatedWithTheirNames) {
   f.gate = -1.0;
   EXPECT_NE(f.validate().find("gate"), std::string::npos);
 }
+
+// The odometry bookkeeping the grouper leaves to core: the distance walked
+// between sweeps, the grid kept on the robot (or where it was when the robot's
+// place is not known), and a clock that goes back starting the map again.
+TEST(FusedMapTracker, CountsTheWalkFollowsTheRobotAndStartsAgainWhenTheClockGoesBack) {
+  FusedMapTracker t(cells(), fusedParams());
+  SweepResult a, b;
+  a.planes = {rectangle(0, 0.5, -0.5, 1.0, 0.5, 0.0)};
+  b.planes = {rectangle(0, 1.2, -0.5, 1.8, 0.5, 0.1)};
+  a.end = 1.0;
+  const Eigen::Vector2d at0(0.0, 0.0), at1(0.3, 0.4);
+  t.addSweep(a, &at0);
+  EXPECT_DOUBLE_EQ(t.travelled(), 0.0);
+  EXPECT_NEAR(t.map().grid().params.origin_x, -2.0, 1e-9);  // 4 m around the robot
+  const std::size_t c = cellAt(t.map().grid(), 0.7, 0.0);
+  EXPECT_NEAR(t.map().grid().heights[c], 0.0, 1e-6);
+  b.end = 2.0;
+  t.addSweep(b, &at1);
+  EXPECT_NEAR(t.travelled(), 0.5, 1e-12);
+  EXPECT_NEAR(t.map().grid().params.origin_x, 0.3 - 2.0, 1e-9);
+  EXPECT_NEAR(t.map().grid().params.origin_y, 0.4 - 2.0, 1e-9);
+  EXPECT_NEAR(t.map().grid().heights[cellAt(t.map().grid(), 0.7, 0.0)], 0.0, 1e-6);  // kept in the frame
+  b.end = 3.0;
+  t.addSweep(b, nullptr);  // the robot's place not known: the map stays, the walk is not counted
+  EXPECT_NEAR(t.travelled(), 0.5, 1e-12);
+  EXPECT_NEAR(t.map().grid().params.origin_x, 0.3 - 2.0, 1e-9);
+  b.end = 0.5;  // a recording played again
+  t.addSweep(b, &at0);
+  EXPECT_DOUBLE_EQ(t.travelled(), 0.0);
+  EXPECT_TRUE(std::isnan(t.map().grid().heights[cellAt(t.map().grid(), 0.7, 0.0)])) << "the old map was kept";
+  EXPECT_NEAR(t.map().grid().heights[cellAt(t.map().grid(), 1.5, 0.0)], 0.1, 1e-6);
+}

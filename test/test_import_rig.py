@@ -39,13 +39,14 @@ string frame_id
 """
 
 
-def stand_bag(path, height=1.1075, arm=0.08):
-    """A stand stepping 10 -> 60 -> 50 deg (0.5 deg a scan, 10 Hz) over a floor, as the rig's node records it."""
+def stand_bag(path, height=1.1075, arm=0.08, back=20):
+    """A stand stepping 10 -> 60 deg and `back` steps back (0.5 deg a scan, 10 Hz) over a floor, as the rig's node
+    records it."""
     import genpy.dynamic
     import rosbag
     import rospy
     cls = genpy.dynamic.generate_dynamic("pcg_node/LaserScanAngle", DEFINITION)["pcg_node/LaserScanAngle"]
-    tilts = [10 + 0.5 * k for k in range(101)] + [60 - 0.5 * k for k in range(1, 21)]
+    tilts = [10 + 0.5 * k for k in range(101)] + [60 - 0.5 * k for k in range(1, back + 1)]
     inc, n = 0.006135923, 681
     amin = -inc * (n - 1) / 2
     with rosbag.Bag(path, "w") as bag:
@@ -98,6 +99,32 @@ def test_a_stand_over_a_floor_gives_the_floor_at_zero(tmp_path):
     assert abs(abs(float(p.group(3))) - 1.0) < 1e-3 and abs(float(p.group(4))) < 0.005, grouped
     f = re.search(r"floor at z=([-\d.]+) m: (\d+) points, ([\d.]+) % in plane", grouped)
     assert f and abs(float(f.group(1))) < 0.01 and float(f.group(3)) > 99.0, grouped
+
+
+def test_a_one_sweep_recording_gives_its_sweep(tmp_path):
+    # 10 -> 60 deg and the recording ends: no reversal after the sweep. The
+    # recording's end closes it (before: "0 sweeps ... no warnings").
+    src, out = str(tmp_path / "one.bag"), str(tmp_path / "one_tlp.bag")
+    stand_bag(src, back=0)
+    run(sys.executable, IMPORT, src, out)
+    grouped = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--room")
+    m = re.search(r"sweep 0: (\d+) lines, (\d+) planes", grouped)
+    assert m and int(m.group(1)) >= 95 and int(m.group(2)) >= 1, grouped
+    assert "the recording's end closed sweep 0" in grouped, grouped
+    assert re.search(r"101 scans, 1 sweeps", grouped), grouped
+    f = re.search(r"floor at z=([-\d.]+) m: (\d+) points, ([\d.]+) % in plane", grouped)
+    assert f and abs(float(f.group(1))) < 0.01 and float(f.group(3)) > 99.0, grouped
+    # No vertical plane in a floor: --room says so rather than calling a slice of the floor a wall.
+    assert "no vertical plane above it" in grouped, grouped
+
+
+def test_a_recording_without_a_sweep_says_why(tmp_path):
+    # Without the import's lead-in the tilt never reverses: no sweep began.
+    src, out = str(tmp_path / "one.bag"), str(tmp_path / "one_tlp.bag")
+    stand_bag(src, back=0)
+    run(sys.executable, IMPORT, src, out, "--no-lead-in")
+    grouped = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf")
+    assert "0 sweeps" in grouped and "no sweep: the tilt never reversed" in grouped, grouped
 
 
 def test_the_dump_is_an_organized_cloud_segment_cloud_reads(tmp_path):
@@ -179,10 +206,12 @@ def test_cardboard_box_gives_its_four_faces(tmp_path):
     out = str(tmp_path / "cardboard_box_tlp.bag")
     run(sys.executable, IMPORT, os.path.join(SHARED, "cardboard_box.bag"), out)
     grouped = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--room")
+    # The first sweep (the recording's end closes a second one, sweeping back).
+    first = grouped.split("sweep 1:")[0]
     normals = [tuple(float(v) for v in p) for p in
-               re.findall(r"plane \d+: \d+ points, [\d.]+ m\^2, normal \(([-\d.]+) ([-\d.]+) ([-\d.]+)\)", grouped)]
+               re.findall(r"plane \d+: \d+ points, [\d.]+ m\^2, normal \(([-\d.]+) ([-\d.]+) ([-\d.]+)\)", first)]
     for axis in ((0, 0, 1), (1, 0, 0), (0, 1, 0)):
         assert any(abs(sum(a * b for a, b in zip(n, axis))) > math.cos(math.radians(12)) for n in normals), grouped
     assert sum(1 for n in normals if abs(n[1]) > math.cos(math.radians(12))) == 2, grouped
-    w = re.search(r"largest wall \(normal \d+ deg, [-\d.]+ m\): (\d+) points, ([\d.]+) % in plane", grouped)
+    w = re.search(r"largest wall \(normal \d+ deg, [-\d.]+ m\): (\d+) points, ([\d.]+) % in plane", first)
     assert w and float(w.group(2)) >= 90.0, grouped

@@ -267,3 +267,65 @@ TEST(SegmentCloud, OrganizedCloudThroughPcd) {
   EXPECT_GT(static_cast<double>(labeled) / valid, 0.9);
   std::remove(path.c_str());
 }
+
+// A 3DTK scan: centimetres, left-handed (x right, y up, z forward), a point at
+// the origin for no return; lines found where the angle falls back.
+TEST(Dtk3d, LinesUnitsAndFrameOfA3dtkScan) {
+  const std::string dir = testing::TempDir();
+  const std::string path = dir + "/scan_test.3d";
+  {
+    std::ofstream f(path);
+    // two lines of four beams, each from the right (x > 0) to the left; one no return
+    for (int line = 0; line < 2; ++line)
+      for (int b = 0; b < 4; ++b) {
+        const double a = M_PI * (0.1 + 0.8 * b / 3.0);  // 18 .. 162 degrees in the x-z plane
+        if (line == 1 && b == 2) {
+          f << "0 0 0\n";
+          continue;
+        }
+        f << 200.0 * std::cos(a) << " " << -45.0 + 10.0 * line << " " << 200.0 * std::sin(a) << "\n";
+      }
+    std::ofstream pose(dir + "/scan_test.pose");
+    pose << "10 20 30\n0 0 0\n";
+  }
+  const io::OrganizedCloud c = io::readCloud(path);
+  ASSERT_EQ(c.height, 2);
+  ASSERT_EQ(c.width, 4);
+  // the first point: x right 200 cos(18 deg) cm -> y = -1.902 m; z forward 200 sin(18 deg) -> x = 0.618 m; y up -> z
+  EXPECT_NEAR(c.points[0].x(), 2.0 * std::sin(0.1 * M_PI), 1e-5);
+  EXPECT_NEAR(c.points[0].y(), -2.0 * std::cos(0.1 * M_PI), 1e-5);
+  EXPECT_NEAR(c.points[0].z(), -0.45, 1e-5);
+  EXPECT_NEAR(c.points[4].z(), -0.35, 1e-5);
+  EXPECT_TRUE(std::isnan(c.points[6].x()));
+  EXPECT_NEAR(c.viewpoint.x(), 0.30, 1e-9);
+  EXPECT_NEAR(c.viewpoint.y(), -0.10, 1e-9);
+  EXPECT_NEAR(c.viewpoint.z(), 0.20, 1e-9);
+  // its lines the other way round: the second line first
+  const io::OrganizedCloud r = io::reversedLines(c, true);
+  EXPECT_NEAR(r.points[0].z(), -0.35, 1e-5);
+  EXPECT_TRUE(std::isnan(r.points[2].x()));
+  const io::OrganizedCloud back = io::reversedLines(r, true);
+  for (std::size_t i = 0; i < c.points.size(); ++i)
+    if (c.points[i].allFinite()) {
+      EXPECT_EQ(back.points[i], c.points[i]) << i;
+    }
+}
+
+TEST(Dtk3d, TheSharedNoddingScanIs226LinesOf360) {
+  const std::string path = std::string(TLP_SHARED_DIR) + "/data/real/3dtk/scan000.3d";
+  if (!std::ifstream(path)) GTEST_SKIP() << path << " is absent (shared data): the 3DTK scan check is skipped";
+  const io::OrganizedCloud c = io::readCloud(path);
+  EXPECT_EQ(c.height, 226);
+  EXPECT_EQ(c.width, 360);
+  std::size_t valid = 0, floor = 0;
+  double zmax = -1e9;
+  for (const auto& p : c.points)
+    if (p.allFinite()) {
+      ++valid;
+      floor += std::abs(p.z() + 0.45) < 0.05;
+      zmax = std::max<double>(zmax, p.z());
+    }
+  EXPECT_GT(valid, 0.95 * c.points.size());
+  EXPECT_GT(floor, valid / 10) << "the floor about 0.45 m below the scanner (z up)";
+  EXPECT_GT(zmax, 3.0) << "a ceiling metres up";
+}

@@ -235,7 +235,9 @@ TEST(Split, AVeilOfMixedPixelsMakesNoSegmentAndIsMarked) {
   bool jump = false, occluded = false;
   for (std::size_t k = 0; k < r.edges.size(); ++k) {
     const auto& e = r.edges[k];
-    if (k > 0) EXPECT_LE(r.edges[k - 1].index, e.index);  // beam order
+    if (k > 0) {
+      EXPECT_LE(r.edges[k - 1].index, e.index);  // beam order
+    }
     if (e.kind == EdgeKind::Veil) veil.push_back(e.index);
     jump = jump || (e.kind == EdgeKind::Jump && e.index == last_post);
     occluded = occluded || (e.kind == EdgeKind::Occluded && e.index == last_post + 6);

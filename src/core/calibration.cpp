@@ -1,6 +1,7 @@
 #include "tilt_laser_perception/core/calibration.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 
@@ -615,6 +616,44 @@ bool CalibrationWatch::judge(const CalibrationResult& r, std::string& message) c
                           "; record a few sweeps and run calibrate, or apply: " + HeadCalibrator::summary(r)
                     : std::string("calibration holds") + rms;
   return drifted;
+}
+
+CalibrationMonitor::CalibrationMonitor(const TiltChain& chain, const CalibrationWatchOptions& options)
+    : chain_(chain), o_(options) {}
+
+CalibrationMonitor::~CalibrationMonitor() {
+  if (check_.valid()) check_.wait();
+}
+
+void CalibrationMonitor::addJoint(double t, double q) {
+  if (watch_) watch_->addJoint(t, q);
+}
+
+bool CalibrationMonitor::poll() {
+  if (!check_.valid() || check_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return false;
+  const CalibrationResult r = check_.get();
+  ++checks_;
+  drifted_ = watch_ && watch_->judge(r, message_);
+  return true;
+}
+
+void CalibrationMonitor::addSweep(const SweepResult& sweep, const Eigen::Isometry3d& base) {
+  // The check solves for a head that stands: a base that moved (1 cm, 0.01
+  // rad: far beyond what standing sways) starts the window again at its new place.
+  if (watch_ && ((base.translation() - base_.translation()).norm() > 0.01 ||
+                 Eigen::AngleAxisd(base.linear() * base_.linear().transpose()).angle() > 0.01)) {
+    watch_.reset();
+    message_ = "waiting for the robot to stand still";
+  }
+  if (!watch_) {
+    base_ = base;
+    TiltChain chain = chain_;
+    chain.base_to_joint = base * chain.base_to_joint;
+    watch_ = std::make_unique<CalibrationWatch>(chain, o_);
+    return;  // its joint states start now: the next sweep is its first
+  }
+  std::shared_ptr<HeadCalibrator> full = watch_->addSweep(sweep);
+  if (full && !check_.valid()) check_ = std::async(std::launch::async, [full] { return full->solve(); });
 }
 
 }  // namespace core

@@ -298,5 +298,21 @@ void FusedHeightMap::forget(double now) {
     it = it->second.last_seen < now - p_.forget_time ? planes_.erase(it) : std::next(it);
 }
 
+void FusedMapTracker::addSweep(const SweepResult& sweep, const Eigen::Vector2d* robot) {
+  if (sweep.end < last_end_ - 1.0) {  // the clock went back (a recording started again): so does the map
+    map_.clear();
+    robot_known_ = false;
+    travelled_ = 0.0;
+  }
+  last_end_ = sweep.end;
+  if (robot) {
+    if (robot_known_) travelled_ += (*robot - robot_).norm();
+    robot_ = *robot;
+    robot_known_ = true;
+  }
+  map_.recentre(robot_.x(), robot_.y());
+  map_.addSweep(sweep, meanOrigin(sweep), sweep.end, travelled_);
+}
+
 }  // namespace core
 }  // namespace tilt_laser_perception

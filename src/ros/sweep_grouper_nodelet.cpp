@@ -109,7 +109,7 @@ void SweepGrouperNodelet::onInit() {
   }
   map_params_.width = static_cast<int>(std::lround(size_x / map_params_.resolution));
   map_params_.height = static_cast<int>(std::lround(size_y / map_params_.resolution));
-  if (fuse_) fused_ = std::make_unique<core::FusedHeightMap>(map_params_, fp);
+  if (fuse_) fused_ = std::make_unique<core::FusedMapTracker>(map_params_, fp);
 
   // Set before anything that may call kickIf (the inline queues' hooks).
   kick_ = boost::make_shared<TaskCallback>([this] {
@@ -194,7 +194,7 @@ void SweepGrouperNodelet::reconfigure(SweepGrouperConfig& c, uint32_t) {
   map_params_.max_slope_deg = c.map_max_slope_deg;
   map_params_.max_step_height = c.map_max_step_height;
   map_params_.obstacle_min_height = c.map_obstacle_min_height;
-  if (fused_) fused_->setClassification(map_params_);
+  if (fused_) fused_->map().setClassification(map_params_);
 }
 
 template <class F>
@@ -255,7 +255,12 @@ bool SweepGrouperNodelet::setupChain() {
     return Status::Missing;
   };
   assembler_ = std::make_unique<core::SweepAssembler>(sweep_params_, chain, base_pose);
-  chain_ = chain;
+  if (calibration_check_sweeps_ > 0) {
+    core::CalibrationWatchOptions wo;
+    wo.sweeps = calibration_check_sweeps_;
+    wo.period = calibration_check_period_;
+    calibration_ = std::make_unique<core::CalibrationMonitor>(chain, wo);
+  }
   chain_error_.clear();
   NODELET_INFO("SweepGrouper: %s -> %s (joint %s) -> %s, assembling in %s", parent_link_.c_str(),
                joint_name_.c_str(), joint_name_.c_str(), laser_frame_.c_str(), frame_id_.c_str());
@@ -307,7 +312,7 @@ void SweepGrouperNodelet::addJoint(const sensor_msgs::JointState& js) {
   if (!health_.acceptJointPosition(js, i)) return;
   const double t = js.header.stamp.toSec();
   assembler_->addJoint(t, js.position[i]);
-  if (watch_) watch_->addJoint(t, js.position[i]);
+  if (calibration_) calibration_->addJoint(t, js.position[i]);
 }
 
 void SweepGrouperNodelet::onScanIn(const ros::MessageEvent<sensor_msgs::LaserScan const>& event) {
@@ -408,13 +413,6 @@ void SweepGrouperNodelet::pollSweeps() {
 }
 
 void SweepGrouperNodelet::fuseSweep(const core::SweepResult& sweep) {
-  // A recording that starts again (the clock went back): start the map again too.
-  if (sweep.end < last_fused_ - 1.0) {
-    fused_->clear();
-    robot_known_ = false;
-    travelled_ = 0.0;
-  }
-  last_fused_ = sweep.end;
   // Where the robot was at the sweep's last beam: a pose the sweep's lines
   // have waited for, so live and replayed runs find it alike.
   try {
@@ -422,23 +420,19 @@ void SweepGrouperNodelet::fuseSweep(const core::SweepResult& sweep) {
         tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, robot_frame_, ros::Time(core::lastBeamTime(sweep))))
             .translation()
             .head<2>();
-    if (robot_known_) travelled_ += (xy - robot_xy_).norm();
-    robot_xy_ = xy;
-    robot_known_ = true;
+    fused_->addSweep(sweep, &xy);
   } catch (const tf2::TransformException& e) {
-    // The map stays where it was (its cells are still right in the fixed frame).
     warn("no pose of ~robot_frame '" + robot_frame_ + "' in '" + frame_id_ + "' at the sweep's last beam: the fused map stays where it was (" +
          e.what() + ")");
+    fused_->addSweep(sweep, nullptr);
   }
-  fused_->recentre(robot_xy_.x(), robot_xy_.y());
-  fused_->addSweep(sweep, core::meanOrigin(sweep), sweep.end, travelled_);
 }
 
 void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   const auto t0 = std::chrono::steady_clock::now();
   if (fused_) fuseSweep(sweep);
   else core::buildHeightMap(sweep, map_params_, grid_);
-  const core::HeightMapGrid& grid = fused_ ? fused_->grid() : grid_;
+  const core::HeightMapGrid& grid = fused_ ? fused_->map().grid() : grid_;
   std_msgs::Header header;
   header.stamp = ros::Time(sweep.end);
   header.frame_id = frame_id_;
@@ -449,7 +443,7 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   map->header = header;
   toMsg(grid, *map);
   map->info.map_load_time = header.stamp;
-  if (fused_) fused_->uncertainty(sweep.end, travelled_, map->sigmas, map->ages);
+  if (fused_) fused_->map().uncertainty(sweep.end, fused_->travelled(), map->sigmas, map->ages);
   planes_pub_.publish(planes);
   map_pub_.publish(map);
   if (grid_pub_.getNumSubscribers() > 0) {
@@ -463,7 +457,7 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
     auto terrain = boost::make_shared<PlanePolygonArray>();
     terrain->header = header;
     std::vector<core::Plane> kept;
-    for (const auto& [id, tp] : fused_->planes()) kept.push_back(tp.plane);
+    for (const auto& [id, tp] : fused_->map().planes()) kept.push_back(tp.plane);
     toMsg(kept, *terrain);
     terrain_pub_.publish(terrain);
   }
@@ -493,41 +487,15 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
 }
 
 void SweepGrouperNodelet::checkCalibration(const core::SweepResult* sweep) {
-  if (calibration_check_sweeps_ <= 0) return;
-  if (check_.valid() && check_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-    const core::CalibrationResult r = check_.get();
-    ++calibration_checks_;
-    calibration_drifted_ = watch_->judge(r, calibration_message_);
-    if (calibration_drifted_) warn(calibration_message_);
-  }
+  if (!calibration_) return;
+  if (calibration_->poll() && calibration_->drifted()) warn(calibration_->message());
   if (!sweep) return;
   // The standing robot's base: the chain's base in the frame at the sweep's last beam.
-  Eigen::Isometry3d base;
   try {
-    base = tf2::transformToEigen(tf_buffer_->lookupTransform(frame_id_, parent_link_, ros::Time(core::lastBeamTime(*sweep))));
+    calibration_->addSweep(*sweep, tf2::transformToEigen(tf_buffer_->lookupTransform(
+                                       frame_id_, parent_link_, ros::Time(core::lastBeamTime(*sweep)))));
   } catch (const tf2::TransformException&) {
-    return;
   }
-  // The check solves for a head that stands: a base that moved (a walk, in a
-  // fixed ~frame_id) starts the window again, at its new place.
-  if (watch_ && ((base.translation() - watch_base_.translation()).norm() > 0.01 ||
-                 Eigen::AngleAxisd(base.linear() * watch_base_.linear().transpose()).angle() > 0.01)) {
-    watch_.reset();
-    calibration_message_ = "waiting for the robot to stand still";
-  }
-  if (!watch_) {
-    watch_base_ = base;
-    core::TiltChain chain = chain_;
-    chain.base_to_joint = base * chain.base_to_joint;
-    core::CalibrationWatchOptions wo;
-    wo.sweeps = calibration_check_sweeps_;
-    wo.period = calibration_check_period_;
-    watch_ = std::make_unique<core::CalibrationWatch>(chain, wo);
-    return;  // its joint states start now: the next sweep is its first
-  }
-  std::shared_ptr<core::HeadCalibrator> full = watch_->addSweep(*sweep);
-  // One check at a time (a window that fills while one runs is skipped).
-  if (full && !check_.valid()) check_ = std::async(std::launch::async, [full] { return full->solve(); });
 }
 
 void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
@@ -558,14 +526,14 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("grouping as lines came [ms] (last sweep)", last_group_ms_);
   stat.add("latency after the last line [ms] (last sweep)", last_latency_ms_);
   if (fused_) {
-    stat.add("fused map: distance walked [m]", travelled_);
-    stat.add("fused map: terrain planes", fused_->planes().size());
+    stat.add("fused map: distance walked [m]", fused_->travelled());
+    stat.add("fused map: terrain planes", fused_->map().planes().size());
   }
-  if (calibration_check_sweeps_ > 0) {
+  if (calibration_) {
     checkCalibration(nullptr);  // a verdict that came since the last sweep
-    stat.add("calibration check", calibration_message_);
-    stat.add("calibration checks", calibration_checks_);
-    if (calibration_drifted_) stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, "calibration drifted");
+    stat.add("calibration check", calibration_->message());
+    stat.add("calibration checks", calibration_->checks());
+    if (calibration_->drifted()) stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, "calibration drifted");
   }
 }
 

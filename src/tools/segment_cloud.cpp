@@ -19,11 +19,14 @@ using namespace tilt_laser_perception;
 
 static void usage() {
   std::fprintf(stderr,
-               "usage: segment_cloud CLOUD.pcd [--scan-lines rows|columns] [--out LABELS.pcd] [--zeta Z] [--dmin D]\n"
+               "usage: segment_cloud CLOUD.pcd|SCAN.3d [--scan-lines rows|columns] [--reverse] [--out LABELS.pcd] [--zeta Z]\n"
+               "                     [--dmin D]\n"
                "                     [--noise auto|off|SIGMA] [--line-spacing-deg D] [--threads 1|2]\n"
                "                     [--truth-field NAME [--truth-none V] [--overlap T]]\n"
                "  the cloud must be organized (HEIGHT > 1); its VIEWPOINT is the sensor's position;\n"
                "  PCD data ascii, binary or binary_compressed, fields in any order (PCL's reader)\n"
+               "  a .3d file is a 3DTK scan (x y z in cm, left-handed, y up; a row a scan line), taken to metres, z up\n"
+               "  --reverse           the scan lines in the other order (the result should not depend on it)\n"
                "  --truth-field NAME  judge the planes against the labels in field NAME (Hoover et al., 80 %%)\n"
                "  --truth-none V      the label value that means no plane (default: every value is a plane)\n"
                "  --out FILE          x y z label (PointXYZL, binary_compressed)\n"
@@ -43,7 +46,7 @@ static void usage() {
 
 int main(int argc, char** argv) {
   std::string in, out;
-  bool rows = true;
+  bool rows = true, reverse = false;
   core::SplitParams split;
   io::TruthField truth;
   double overlap = 0.8;
@@ -57,7 +60,8 @@ int main(int argc, char** argv) {
       const std::string m = argv[++i];
       if (m != "rows" && m != "columns") { usage(); return 2; }
       rows = m == "rows";
-    } else if (a == "--out" && v) out = argv[++i];
+    } else if (a == "--reverse") reverse = true;
+    else if (a == "--out" && v) out = argv[++i];
     else if (a == "--zeta" && v) split.zeta = std::atof(argv[++i]);
     else if (a == "--dmin" && v) split.d_min = std::atof(argv[++i]);
     else if (a == "--truth-field" && v) truth.name = argv[++i];
@@ -77,7 +81,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    const io::OrganizedCloud c = io::readPcd(in, truth);
+    const io::OrganizedCloud c = reverse ? io::reversedLines(io::readCloud(in, truth), rows) : io::readCloud(in, truth);
     if (c.height < 2 || c.width < 2) throw std::runtime_error(in + " is not organized (HEIGHT and WIDTH must be > 1)");
     std::vector<core::Plane> planes;
     std::vector<std::uint32_t> labels;
@@ -96,9 +100,9 @@ int main(int argc, char** argv) {
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::size_t labeled = 0;
     for (auto l : labels) labeled += l != 0;
-    std::printf("%s: %d x %d points, scan lines are %s; %zu planes, %zu points in planes; %.2f ms (%d thread%s)\n",
-                in.c_str(), c.width, c.height, rows ? "rows" : "columns", planes.size(), labeled, ms, threads,
-                threads > 1 ? "s" : "");
+    std::printf("%s: %d x %d points, scan lines are %s%s; %zu planes, %zu points in planes; %.2f ms (%d thread%s)\n",
+                in.c_str(), c.width, c.height, rows ? "rows" : "columns", reverse ? " (reversed)" : "", planes.size(),
+                labeled, ms, threads, threads > 1 ? "s" : "");
     if (step > 1)
       std::printf("scan lines closer than %.2f deg: every %d. grouped, the points of the lines between joined to planes\n",
                   spacing_deg, step);

@@ -27,6 +27,7 @@
 
 #include <array>
 #include <deque>
+#include <future>
 #include <memory>
 #include <string>
 #include <utility>
@@ -169,6 +170,38 @@ class CalibrationWatch {
   std::unique_ptr<HeadCalibrator> current_;        ///< the window being collected; null between windows
   std::deque<std::pair<double, double>> recent_;  ///< the last seconds of joint states, for the next window
   double next_start_ = -1e300;                    ///< the next window's first sweep starts at or after this [s]
+};
+
+/// The live calibration check of a running head (the grouper's): a
+/// CalibrationWatch over the sweeps of a robot that stands, each full window
+/// solved on a thread of its own (one at a time; a window that fills while
+/// one runs is skipped), and its verdict. A base that moved (a walk, in a
+/// fixed frame) starts the window again at its new place. Not thread-safe by
+/// itself: call it from one thread (the solve runs apart).
+class CalibrationMonitor {
+ public:
+  /// `chain`: the head's, its base that of the chain in the sweeps' frame up to `base` below.
+  CalibrationMonitor(const TiltChain& chain, const CalibrationWatchOptions& options);
+  ~CalibrationMonitor();  ///< waits for a check that runs
+  void addJoint(double t, double q);
+  /// A finished sweep, and the chain's base in the sweeps' frame at its last beam.
+  void addSweep(const SweepResult& sweep, const Eigen::Isometry3d& base);
+  /// Takes the verdict of a check that finished since: true when one came.
+  bool poll();
+  bool drifted() const { return drifted_; }
+  /// What the last check found ("no check yet", or that the robot must stand still).
+  const std::string& message() const { return message_; }
+  unsigned long checks() const { return checks_; }
+
+ private:
+  TiltChain chain_;
+  CalibrationWatchOptions o_;
+  std::unique_ptr<CalibrationWatch> watch_;
+  Eigen::Isometry3d base_ = Eigen::Isometry3d::Identity();  ///< the chain's base when the window began
+  std::future<CalibrationResult> check_;
+  std::string message_ = "no check yet";
+  bool drifted_ = false;
+  unsigned long checks_ = 0;
 };
 
 }  // namespace core

@@ -101,5 +101,28 @@ class FusedHeightMap {
   bool placed_ = false;
 };
 
+/// The fused map of a walking robot with its odometry bookkeeping (the
+/// grouper's): the distance walked between sweeps (each cell's sigma grows
+/// with it), the grid kept centred on the robot, and a clock that goes back
+/// (a recording that loops) starting the map again.
+class FusedMapTracker {
+ public:
+  FusedMapTracker(const HeightMapParams& cells, const FusedMapParams& params) : map_(cells, params) {}
+  /// Fuses a sweep; `robot` is the robot's place (x, y) in the map's frame at
+  /// the sweep's last beam, or null when it is not known (the map then stays
+  /// where it was: its cells are still right in the fixed frame).
+  void addSweep(const SweepResult& sweep, const Eigen::Vector2d* robot);
+  /// The distance walked since the map began [m].
+  double travelled() const { return travelled_; }
+  const FusedHeightMap& map() const { return map_; }
+  FusedHeightMap& map() { return map_; }
+
+ private:
+  FusedHeightMap map_;
+  Eigen::Vector2d robot_ = Eigen::Vector2d::Zero();
+  bool robot_known_ = false;
+  double travelled_ = 0.0, last_end_ = -1e300;
+};
+
 }  // namespace core
 }  // namespace tilt_laser_perception

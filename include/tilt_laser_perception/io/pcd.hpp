@@ -42,5 +42,23 @@ OrganizedCloud readPcd(const std::string& path, const TruthField& truth = TruthF
 void writeLabeledPcd(const std::string& path, const OrganizedCloud& cloud, const std::vector<std::uint32_t>& labels,
                      bool ascii = false);
 
+/// Reads a 3DTK scan (`scanNNN.3d`: ascii, a point a line, x y z in
+/// centimetres in 3DTK's left-handed frame, x right, y up, z forward; a point
+/// at the origin or beyond 3,276 cm is no return) as an organized cloud in a
+/// right-handed frame, x forward, y left, z up, in metres: a row a scan line.
+/// A line ends where the beam's angle in the x-z plane falls back; lines of
+/// fewer points are padded with NaN. The pose file beside it (`scanNNN.pose`:
+/// the position in cm, then the angles), when there, gives the viewpoint;
+/// the points stay as the file has them. Throws std::runtime_error naming the
+/// file and what is wrong.
+OrganizedCloud read3dtk(const std::string& path);
+
+/// Reads `path` by its name: a 3DTK scan for `.3d`, else a PCD file.
+OrganizedCloud readCloud(const std::string& path, const TruthField& truth = TruthField());
+
+/// The same cloud with its scan lines in the other order (rows, or columns
+/// when `rows` is false): the truth labels move with their points.
+OrganizedCloud reversedLines(const OrganizedCloud& c, bool rows);
+
 }  // namespace io
 }  // namespace tilt_laser_perception

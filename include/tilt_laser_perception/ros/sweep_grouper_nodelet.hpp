@@ -9,7 +9,6 @@
 #pragma once
 
 #include <atomic>
-#include <future>
 
 #include <memory>
 #include <mutex>
@@ -99,10 +98,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   // ~fuse_sweeps: height_map is the map fused over sweeps, its centre on ~robot_frame.
   bool fuse_ = false;
   std::string robot_frame_;
-  std::unique_ptr<core::FusedHeightMap> fused_;
-  Eigen::Vector2d robot_xy_ = Eigen::Vector2d::Zero();
-  bool robot_known_ = false;
-  double travelled_ = 0.0, last_fused_ = -1e300;
+  std::unique_ptr<core::FusedMapTracker> fused_;
   /// Moves the fused map with the robot and fuses the sweep in.
   void fuseSweep(const core::SweepResult& sweep);
   std::string frame_id_, joint_name_, laser_frame_, parent_link_;
@@ -123,13 +119,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   // The live calibration check (~calibration_check_sweeps; 0: off).
   int calibration_check_sweeps_ = 8;
   double calibration_check_period_ = 60.0;
-  core::TiltChain chain_;
-  std::unique_ptr<core::CalibrationWatch> watch_;
-  Eigen::Isometry3d watch_base_ = Eigen::Isometry3d::Identity();  ///< the chain's base when the watch began
-  std::future<core::CalibrationResult> check_;
-  std::string calibration_message_ = "no check yet";
-  bool calibration_drifted_ = false;
-  unsigned long calibration_checks_ = 0;
+  std::unique_ptr<core::CalibrationMonitor> calibration_;  ///< null while off or before the chain is known
 };
 
 }  // namespace tilt_laser_perception
