@@ -96,3 +96,50 @@ def test_two_threads_give_the_same_planes_and_labels(tmp_path):
     for bad in ("0", "-2", "3"):
         r = run("segment_cloud", cloud, "--threads", bad)
         assert r.returncode == 2 and "usage" in r.stderr
+
+
+SHARED = os.path.join(ROOT, "..", "shared", "data")
+
+
+def test_the_line_pose_error_is_estimated_or_given(tmp_path):
+    # A range image's rows have no pose error of their own: next to nothing
+    # estimated; a value given is taken as it is; a bad one refused.
+    cloud = str(tmp_path / "ramp.pcd")
+    assert run("scene_cloud", cloud, "--scene", "ramp", "--size", "200", "--sigma", "0.001", "--seed", "1").returncode == 0
+    _, out = judged(cloud, "off")
+    m = re.search(r"line pose error ([\d.]+) deg \(estimated\)", out)
+    assert m and float(m.group(1)) < 0.05, out
+    _, out = judged(cloud, "off", "--line-sigma-deg", "0.5")
+    assert "line pose error 0.500 deg (given)" in out, out
+    r = run("segment_cloud", cloud, "--line-sigma-deg", "-1")
+    assert r.returncode == 2
+
+
+def surface_shares(out):
+    return {m.group(1): (float(m.group(2)), float(m.group(3)), m.group(4)) for m in re.finditer(
+        r"surface (\w+): \d+ points .*?largest plane ([\d.]+) %, in planes ([\d.]+) %, planes for 80 %: (\w+)", out)}
+
+
+def test_the_nodding_sick_scans_ceiling_with_the_line_term():
+    # 3DTK's scan000.3d (../shared/data/real/3dtk): each line's own tilt error
+    # puts the ceiling's lines centimetres off one plane. Without the line term
+    # the ceiling comes out in stripes (largest plane 32 %); with the term
+    # estimated from the scan (0.36 deg) its largest plane holds 66 %, 55 % with
+    # the lines in the other order. The 80 % in at most two planes is
+    # not reached (doc/notes/noise_model.md says why).
+    scan = os.path.join(SHARED, "real", "3dtk", "scan000.3d")
+    if not os.path.exists(scan):
+        import pytest
+        pytest.skip(f"{scan} is absent (shared data)")
+    boxes = ["--surface", "ceiling:-40,40,-40,40,1.85,2.15", "--surface", "floor:-40,40,-40,40,-0.6,-0.3"]
+    outs = {}
+    for name, more in (("estimated", []), ("off", ["--line-sigma-deg", "0"]), ("reversed", ["--reverse"])):
+        r = run("segment_cloud", scan, *boxes, *more)
+        assert r.returncode == 0, r.stderr
+        outs[name] = r.stdout
+    sigma = float(re.search(r"line pose error ([\d.]+) deg \(estimated\)", outs["estimated"]).group(1))
+    assert 0.25 < sigma < 0.5, outs["estimated"]
+    est, off, rev = (surface_shares(outs[k]) for k in ("estimated", "off", "reversed"))
+    assert off["ceiling"][0] < 40.0, outs["off"]
+    assert est["ceiling"][0] > 60.0 and rev["ceiling"][0] > 50.0, outs["estimated"] + outs["reversed"]
+    assert est["floor"][0] > 60.0 and rev["floor"][0] > 60.0, outs["estimated"] + outs["reversed"]

@@ -166,6 +166,8 @@ std::string GroupingParams::validate() const {
   else if (min_segments < 1) s << "min_segments must be >= 1";
   else if (!(crease_reach >= 0.0 && crease_reach < 1.0)) s << "crease_reach must be in [0, 1)";
   else if (!(crease_margin >= 0.0 && crease_margin < 1.0)) s << "crease_margin must be in [0, 1)";
+  else if (!(line_sigma >= 0.0 && line_sigma < 0.1)) s << "line_sigma must be in [0, 0.1) rad";
+  else if (!(significance > 0.0 && significance <= 10.0)) s << "significance must be in (0, 10]";
   return s.str();
 }
 
@@ -230,7 +232,7 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bo
     if (std::max(d1, d2) > 1.5 * thr) return false;
     if (s.length() > 0.15 && std::abs((s.end - s.start).normalized().dot(r.fit.normal)) > std::sin(p_.angle_deg * kDeg))
       return false;
-    const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+    const double tol = p_.centroidTolerance(s.range);
     if (dc > tol) {
       // Beyond the lines that fixed it a plane's place is as uncertain as its
       // tilt (a face seen by three lines, its fourth a backlash off): a
@@ -546,7 +548,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     }
     if (before && after) continue;
     const Eigen::Vector3d c = s.moments.mean();
-    const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+    const double tol = p_.centroidTolerance(s.range);
     // Only a plane within the tolerance can take it: look before refitting its own.
     const auto reaches = [&](int rj) {
       const Region& o = regions_[rj];
@@ -1054,7 +1056,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
           return f.normal.dot(s.origin) > f.offset ? d : -d;  // normal turned to the sensor
         };
         const double side = inFront(of, near_sum / near_n) + inFront(own.fit, near_other.mean());
-        const double tol = std::max(p_.centroid_min, p_.centroid_ratio * s.range);
+        const double tol = p_.centroidTolerance(s.range);
         if (std::abs(side) < tol) return true;
         const bool convex = side < 0.0;
         if (!loadPoints()) return false;
@@ -1142,7 +1144,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
           const int rt = seg_region_[ti];
           // On this segment's plane it would span that plane again.
           if (std::abs(own.fit.normal.dot(t.moments.mean()) - own.fit.offset) <=
-              std::max(p_.centroid_min, p_.centroid_ratio * t.range))
+              p_.centroidTolerance(t.range))
             continue;
           const int lo = std::max(s.first, t.first), hi = std::min(s.last, t.last);
           const double min_run = std::max<double>(p_.min_points, kMinLoneCover * (t.last - t.first + 1));
@@ -1171,7 +1173,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       Segment3 piece;
       if (!pieceOf(s, *pts, best.first, best.last, piece)) continue;
       if (std::abs(best_fit.normal.dot(piece.moments.mean()) - best_fit.offset) >
-          std::max(p_.centroid_min, p_.centroid_ratio * s.range))
+          p_.centroidTolerance(s.range))
         continue;
       out.push_back(best);
     }

@@ -372,6 +372,60 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
   return out;
 }
 
+double estimateLineSigma(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
+                         const Eigen::Vector3d& origin, int step) {
+  constexpr int kLines = 3, kHalf = 4;  // the plane of three lines before, over nine beams
+  const int lines = lines_are_rows ? height : width, beams = lines_are_rows ? width : height;
+  step = std::max(1, step);
+  if (lines <= kLines * step || beams <= 2 * kHalf) return 0.0;
+  const auto at = [&](int line, int beam) -> const Eigen::Vector3f& {
+    return points[lines_are_rows ? static_cast<std::size_t>(line) * width + beam
+                                 : static_cast<std::size_t>(beam) * width + line];
+  };
+  // About 2,000 patches are plenty for a median (and cost about 1 ms).
+  const double patches = static_cast<double>(lines) * beams / 3.0;
+  const int stride = std::max(1, static_cast<int>(std::sqrt(patches / 2000.0)));
+  std::vector<float> offset, along;
+  for (int i = kLines * step; i < lines; i += stride)
+    for (int j = kHalf; j + kHalf < beams; j += 3 * stride) {
+      Moments3 m;
+      bool ok = true;
+      for (int k = 1; k <= kLines && ok; ++k)
+        for (int b = j - kHalf; b <= j + kHalf && ok; ++b) {
+          const Eigen::Vector3f& p = at(i - k * step, b);
+          ok = p.allFinite();
+          if (ok) m.add((p.cast<double>() - origin));
+        }
+      Moments3 cur;
+      for (int b = j - kHalf; b <= j + kHalf && ok; ++b) {
+        const Eigen::Vector3f& p = at(i, b);
+        ok = p.allFinite();
+        if (ok) cur.add(p.cast<double>() - origin);
+      }
+      if (!ok) continue;
+      const PlaneFit f = fitPlane(m);
+      if (f.rms > 0.03 || f.spread(1) < 0.01) continue;  // an edge or a fold; lines too close to fix a normal
+      const Eigen::Vector3d c = cur.mean();
+      const double r = c.norm();
+      if (!(r > 0.0)) continue;
+      offset.push_back(static_cast<float>(std::abs(f.normal.dot(c) - f.offset) / r));
+      const Eigen::Vector3d a = at(i, j - 1).cast<double>() - origin, b = at(i, j).cast<double>() - origin,
+                            d = at(i, j + 1).cast<double>() - origin;
+      along.push_back(static_cast<float>(std::abs(f.normal.dot(b - 0.5 * (a + d))) / r));
+    }
+  if (offset.size() < 200) return 0.0;
+  const auto robustSigma = [](std::vector<float>& v) {
+    auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    return 1.4826 * *mid;
+  };
+  const double so = robustSigma(offset);
+  const double sr = robustSigma(along) / std::sqrt(1.5);  // a point's range noise over its range
+  // The mean of 9 points against the plane of 27 on three lines, extrapolated
+  // two line spacings from their middle: 1/9 + 1/27 + 2^2 / (9 (1 + 0 + 1)) of sr^2.
+  return std::sqrt(std::max(0.0, so * so - sr * sr * (1.0 / 9.0 + 1.0 / 27.0 + 4.0 / 18.0)));
+}
+
 double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping) {
   const double k = noise.sigma > 0.0 ? std::clamp(noise.sigma / kDefaultToleranceNoise, 0.2, 1.0) : 1.0;
   split.d_min *= k;

@@ -48,6 +48,9 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("min_plane_area", g.min_area, g.min_area);
   pnh.param("crease_reach", g.crease_reach, g.crease_reach);
   pnh.param("crease_margin", g.crease_margin, g.crease_margin);
+  double line_sigma_deg = g.line_sigma * 180.0 / M_PI;
+  pnh.param("line_sigma_deg", line_sigma_deg, line_sigma_deg);
+  g.line_sigma = line_sigma_deg * M_PI / 180.0;
   pnh.param("reversal_hysteresis", sweep_params_.reversal_hysteresis, sweep_params_.reversal_hysteresis);
   pnh.param("max_joint_gap", sweep_params_.max_joint_gap, sweep_params_.max_joint_gap);
   pnh.param("max_wait", sweep_params_.max_wait, sweep_params_.max_wait);

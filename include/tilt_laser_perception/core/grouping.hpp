@@ -56,8 +56,23 @@ struct GroupingParams {
   int min_points = 8;             ///< segments with fewer points than this are left out
   double crease_reach = 0.08;     ///< two planes' polygons that both end this close to their common line are carried to it (closeCreases) ... [m]
   double crease_margin = 0.005;   ///< ... up to this far from it; reach <= margin: never [m]
+  /// The noise model's line term: each scan line's own pose error (tilt
+  /// encoder, backlash, timing), common to all its points, moves a whole line
+  /// by about range * line_sigma out of its scan plane [rad, 1 sigma]; 0: the
+  /// tolerances above hold alone. A line is taken to be on a plane while it
+  /// lies within `significance` of these sigmas of it.
+  double line_sigma = 0.0;
+  double significance = 3.0;  ///< [sigmas]
   std::string validate() const;
-  double threshold(double range) const { return std::max(dist_min, dist_ratio * range); }
+  /// How far a segment's points may lie from its plane [m].
+  double threshold(double range) const {
+    return std::max({dist_min, dist_ratio * range, significance * line_sigma * range});
+  }
+  /// How far a segment's centroid may lie from its plane [m]: a fitted line is far less noisy than its
+  /// points, but its pose error is its points' too.
+  double centroidTolerance(double range) const {
+    return std::max({centroid_min, centroid_ratio * range, significance * line_sigma * range});
+  }
 };
 
 /// A plane found by grouping.
