@@ -229,9 +229,21 @@ bool SweepAssembler::finishSweep(double end, SweepResult& out) {
     return false;
   }
   const double t0 = cpuNow();
-  grouper_.finish(current_.planes, [this](int line) { return &current_.lines[line].points; });
+  if (p_.reverse_lines) {
+    // The lines last first, numbered so; their numbers given back after.
+    for (int k = n - 1; k >= 0; --k) {
+      for (Segment3& s : held_[k]) s.line = n - 1 - k;
+      grouper_.addLine(held_[k]);
+    }
+    held_.clear();
+    grouper_.finish(current_.planes, [this, n](int line) { return &current_.lines[n - 1 - line].points; });
+  } else {
+    grouper_.finish(current_.planes, [this](int line) { return &current_.lines[line].points; });
+  }
   current_.finish_seconds = cpuNow() - t0;
   current_.segments = grouper_.segments();
+  if (p_.reverse_lines)
+    for (Segment3& s : current_.segments) s.line = n - 1 - s.line;
   current_.segment_plane = grouper_.segmentPlane();
   current_.end = end;
   out = std::move(current_);
@@ -306,8 +318,12 @@ bool SweepAssembler::process(const LineInput& in, const LineMotion& motion) {
     s.origin = origin;
     segs.push_back(s);
   }
-  if (current_.lines.empty()) grouper_.reset((base * chain_.laserPose(0.0)).translation());
-  grouper_.addLine(segs);
+  if (current_.lines.empty()) {
+    grouper_.reset((base * chain_.laserPose(0.0)).translation());
+    held_.clear();
+  }
+  if (p_.reverse_lines) held_.push_back(std::move(segs));
+  else grouper_.addLine(segs);
   current_.lines.push_back(std::move(line));
   current_.group_seconds += cpuNow() - t0;
   ++counters_.lines;

@@ -64,6 +64,10 @@ struct SweepParams {
   double time_jump_back = 1.0;          ///< stamps this far before the latest, twice in a row: the clock restarted (a looping bag), start again [s]
   ScanLimits scan_limits;              ///< lines beyond these are dropped as malformed
   bool per_beam = true;                ///< joint angle at every beam's time; false: one per line, at its stamp (as tools that look up one tf per scan do)
+  /// For evaluation: each sweep's lines grouped at its end in the other
+  /// order (last line first), the result given back in the lines' own
+  /// numbering. The planes should not depend on it (evaluate --reverse).
+  bool reverse_lines = false;
   GroupingParams grouping;
   /// Empty when valid (these, the scan limits and the grouping's), else a message naming the parameter.
   std::string validate() const;
@@ -169,7 +173,8 @@ class SweepAssembler {
   const std::string& lastWarning() const { return warning_; }
 
  private:
-  std::optional<GroupingParams> next_grouping_;  ///< from setGroupingParams, taken when the next sweep begins
+  std::optional<GroupingParams> next_grouping_;
+  std::vector<std::vector<Segment3>> held_;  ///< reverse_lines: the sweep's segments, line by line, grouped at its end  ///< from setGroupingParams, taken when the next sweep begins
   /// The base's motion within a line: its pose at the middle beam, and the
   /// change of its position and orientation (rotation vector) from the first
   /// beam to the last, in the assembly frame (zero when it stands still).
