@@ -63,22 +63,25 @@ class Report:
         for name in names:
             for rig in ([], ["--realistic"]):
                 f = summarize(self.tool("evaluate"), seeds, ["--scene", name, "--sweeps", "6"] + rig)
+                r = summarize(self.tool("evaluate"), seeds, ["--scene", name, "--sweeps", "6", "--reverse"] + rig)
                 self.scene_figures[(name, bool(rig))] = f
                 rows.append([name, "realistic" if rig else "ideal",
                              f"{f['correct']:.0f} / {f['true_faces']:.0f} ({100 * f['correct'] / max(f['true_faces'], 1):.1f} %)",
                              f"{f['noise']:.2f}", f"{f['missed']:.2f}", f"{f['normal_err_deg']:.2f}",
-                             f"{f['rmse_cm']:.2f}", f"{f['latency_ms']:.2f}"])
+                             f"{f['rmse_cm']:.2f}", f"{f['latency_ms']:.2f}", f"{r['correct']:.0f}, noise {r['noise']:.2f}"])
         s = ",".join(map(str, seeds))
         self.section(
             "Planes and height map on the simulator's scenes",
-            f"python3 scripts/bench/eval_table.py BIN/evaluate --seeds {s} -- --scene NAME --sweeps 6 [--realistic]",
+            f"python3 scripts/bench/eval_table.py BIN/evaluate --seeds {s} -- --scene NAME --sweeps 6 [--realistic] [--reverse]",
             f"Every scene of `config/scenes` (but the Figure 3 ones), seeds {s}, 6 sweeps each, sweeps at 1 rad/s over "
             "10-60 degrees; `realistic`: a real rig's errors (encoder steps, backlash, timing, mount, beam footprint; "
             "doc/simulator.md). Correct faces by Hoover et al.'s criteria at 80 % overlap, summed over the sweeps; "
             "noise and missed: planes a sweep; normal error of the correct faces; the sweep's height map against the "
-            "truth; latency: from the sweep's last line to its planes and map (median sweep).\n\n" +
+            "truth; latency: from the sweep's last line to its planes and map (median sweep); lines reversed: "
+            "the same sweeps with each sweep's lines grouped last first (`--reverse`: the result should not depend "
+            "on the order).\n\n" +
             table(["scene", "rig", "correct faces", "noise", "missed", "normal error [deg]", "height map RMSE [cm]",
-                   "latency [ms]"], rows))
+                   "latency [ms]", "lines reversed: correct"], rows))
         st, sr = self.scene_figures[("stairs", False)], self.scene_figures[("stairs", True)]
         self.summary["stairs"] = (f"{100 * st['correct'] / st['true_faces']:.0f} % of the faces, "
                                   f"height map {st['rmse_cm']:.1f} cm RMSE "
@@ -199,30 +202,49 @@ class Report:
                 continue
             out_bag = os.path.join(tmp, bag + "_tlp.bag")
             run([sys.executable, os.path.join(ROOT, "scripts", "import_tilt_bag.py"), path, out_bag])
-            out = run([self.tool("group_bag"), out_bag, "--urdf", out_bag[:-4] + ".urdf", "--room"])
+            # room_240's stand stands on a table: the room's floor is at z = 0.10 m (../shared/data/README.md)
+            floor = ["--floor-z", "0.10"] if bag == "room_240" else ["--room"]
+            out = run([self.tool("group_bag"), out_bag, "--urdf", out_bag[:-4] + ".urdf"] + floor)
             for k, m in enumerate(re.finditer(r"room: floor at z=[-0-9.]+ m: \d+ points, ([0-9.]+) % in plane -?\d+; "
                                               r"(?:largest wall \(normal (\d+) deg, [-0-9.]+ m\): \d+ points, ([0-9.]+) %"
                                               r"|no vertical plane)", out)):
                 planes = re.findall(r"sweep \d+: \d+ lines, (\d+) planes", out)
                 wall = f"largest wall {m.group(3)} %" if m.group(3) else "no vertical plane"
-                rows.append([f"{bag} sweep {k} (import_tilt_bag.py, group_bag --room)",
+                rows.append([f"{bag} sweep {k} (import_tilt_bag.py, group_bag {' '.join(floor)})",
                              f"{planes[k] if k < len(planes) else '?'} planes; floor {m.group(1)} % in one plane, "
                              f"{wall} in one plane"])
             if "closed sweep" in out:
                 rows[-1][1] += " (the recording's end closed this sweep)"
         shutil.rmtree(tmp, ignore_errors=True)
-        for path, why in ((os.path.join(data, "real", "3dtk", "scan000.3d"),
-                           "not read yet: segment_cloud has no reader of the 3DTK format (issue 38)"),
-                          (os.path.join(data, "real", "drc", "tilted-steps.pcd"),
-                           "not segmented yet: a spinning laser's flat cloud in scan order (issue 39)")):
-            if os.path.exists(path):
-                rows.append([os.path.relpath(path, data), why])
+        dtk = os.path.join(data, "real", "3dtk", "scan000.3d")
+        if os.path.exists(dtk):
+            for more, label in (([], ""), (["--reverse"], ", lines reversed"), (["--line-sigma-deg", "0"], ", no line term")):
+                out = run([self.tool("segment_cloud"), dtk, "--surface", "ceiling:-40,40,-40,40,1.85,2.15",
+                           "--surface", "floor:-40,40,-40,40,-0.6,-0.3"] + more)
+                sig = re.search(r"line pose error ([\d.]+) deg \((\w+)\)", out)
+                parts = []
+                for m in re.finditer(r"surface (\w+): \d+ points .*?largest plane ([\d.]+) %, in planes ([\d.]+) %, "
+                                     r"planes for 80 %: (\w+)", out):
+                    parts.append(f"{m.group(1)}: largest plane {m.group(2)} %, in planes {m.group(3)} %, "
+                                 f"planes for 80 %: {m.group(4)}")
+                if not more:
+                    self.summary["dtk"] = "; ".join(p.split(", in planes")[0] for p in parts)
+                rows.append([f"3dtk scan000.3d (segment_cloud --surface{label})",
+                             f"line pose error {sig.group(1)} deg ({sig.group(2)}); " + "; ".join(parts)])
+        drc = os.path.join(data, "real", "drc", "tilted-steps.pcd")
+        if os.path.exists(drc):
+            rows.append([os.path.relpath(drc, data), "not segmented yet: a spinning laser's flat cloud in scan order "
+                         "(issue 39)"])
         self.section("Data from elsewhere", "BIN/segment_cloud CLOUD --truth-field intensity [--noise auto]; "
-                     "python3 scripts/import_tilt_bag.py BAG OUT.bag && BIN/group_bag OUT.bag --urdf OUT.urdf --room",
+                     "python3 scripts/import_tilt_bag.py BAG OUT.bag && BIN/group_bag OUT.bag --urdf OUT.urdf --room "
+                     "(room_240: --floor-z 0.10); BIN/segment_cloud scan000.3d --surface ceiling:-40,40,-40,40,1.85,2.15 "
+                     "--surface floor:-40,40,-40,40,-0.6,-0.3 [--reverse] [--line-sigma-deg 0]",
                      f"The recordings and clouds of `{os.path.relpath(data, ROOT)}` (its README says what each is). "
-                     "`--room`: the share of the floor (the lowest level holding 2 % of the points) and of the "
-                     "largest wall (the vertical surface most points of vertical planes lie on) that their largest "
-                     "plane holds.\n\n" + table(["data", "result"], rows))
+                     "`--room`: the share of the floor (the lowest level holding 2 % of the points, or the level "
+                     "`--floor-z` names) and of the largest wall (the vertical surface most points of vertical planes "
+                     "lie on) that their largest plane holds. `--surface`: the points in the box within 3 rms of "
+                     "their plane, the share the largest plane holds, the share in any plane, and how many planes "
+                     "hold 80 %.\n\n" + table(["data", "result"], rows))
         room = [r for r in rows if r[0].startswith("room_240 sweep 0")]
         if room:
             self.summary["room"] = room[0][1]
@@ -265,8 +287,9 @@ class Report:
             a, b = text.find(BEGIN), text.find(END)
             if a < 0 or b < 0:
                 sys.exit(f"{readme} has no report:summary markers")
-            block = (BEGIN + "\n" + self.summary_table() + "\n\nFrom the report of " + now + " (commit " + commit +
-                     ") on " + f"{os.cpu_count()} cores of {cpu}.\n")
+            # No date and no commit here: those are the report's (README says what to expect, not when).
+            block = (BEGIN + "\n" + self.summary_table() + f"\n\nOn {os.cpu_count()} cores of an {cpu}; "
+                     "every figure with its command in [doc/evaluation.md](doc/evaluation.md).\n")
             with open(readme, "w") as f:
                 f.write(text[:a] + block + text[b:])
 
@@ -278,7 +301,8 @@ class Report:
                 ["stairs scene (simulated), per sweep", s.get("stairs", "not measured")],
                 ["clutter scene (simulated), per sweep", s.get("clutter", "not measured")],
                 ["walking towards the stairs", s.get("walk", "not measured")],
-                ["a real tilting stand (room_240)", s.get("room", "not measured")]]
+                ["a real tilting stand (room_240, its first sweep)", s.get("room", "not measured")],
+                ["a real nodding SICK scan (3DTK scan000)", s.get("dtk", "not measured")]]
         return table(["what", "figure"], rows)
 
 
