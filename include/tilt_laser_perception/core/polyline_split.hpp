@@ -85,12 +85,15 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
 /// The noise model's line term, estimated from an organized cloud: each
 /// line's offset from the plane of the lines before it (the `step`-th
 /// lines, as grouped: three of them and nine beams), relative to its range,
-/// on the patches that are planar (rms under 3 cm, spread across the lines
-/// over 1 cm); a robust sigma (1.4826 x the median), less what range noise
-/// (along the lines' own beams) leaves in such an offset. The grouping's
-/// GroupingParams::line_sigma [rad]; 0 when fewer than 200 patches qualify.
-/// Measured: 0.09 deg on the simulator's ideal head, 0.12-0.13 with
-/// --realistic, 0.26 on the nodding SICK scan of ../shared/data (3dtk).
+/// on about 300 patches that are planar (rms under 3 cm, spread across the
+/// lines over 1 cm); a robust sigma (1.4826 x the median), less what range
+/// noise leaves in such an offset (measured by the difference of the odd and
+/// even beams' offsets, in which the line's own pose cancels). The
+/// grouping's GroupingParams::line_sigma [rad]; 0 when fewer than 100
+/// patches qualify. Measured: 0.07 deg on a sweep of the simulator's ideal
+/// head, 0.10-0.16 with --realistic, 0.33 on the nodding SICK scan of
+/// ../shared/data (3dtk); 0.16-0.18 on range images with 1 cm of range noise
+/// and no line error (a bias: doc/notes/noise_model.md).
 double estimateLineSigma(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
                          const Eigen::Vector3d& origin, int step = 1);
 
