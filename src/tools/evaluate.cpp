@@ -19,6 +19,7 @@ static void usage() {
                "  --tilt-range MIN,MAX  the sweep's range [deg] (the driver's ~tilt_min, ~tilt_max; default 10,60)\n"
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --reverse   each sweep's lines grouped in the other order (last first): the planes should not depend on it\n"
+               "  --line-sigma-deg D  the grouping's line term (each line's own pose error; default 0)\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
                "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them\n"
                "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n"
@@ -60,6 +61,7 @@ int main(int argc, char** argv) {
     }
     else if (a == "--no-skew") o.sweep.per_beam = false;
     else if (a == "--reverse") o.sweep.reverse_lines = true;
+    else if (a == "--line-sigma-deg" && v) o.sweep.grouping.line_sigma = std::atof(argv[++i]) * M_PI / 180.0;
     else if (a == "--no-pose") o.pose_per_line = false;
     else if (a == "--fused-resolution" && v) o.fused.resolution = std::atof(argv[++i]);
     else if (a == "--judge-mixed") o.judge_mixed = true;
