@@ -10,6 +10,7 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$here/scripts/setup.sh"
 bash "$here/scripts/ci/check_test_lists.sh"
+bash "$here/scripts/ci/check_report.sh"
 bash "$here/scripts/build.sh"
 export PATH="/usr/bin:$PATH"
 ws="${TLP_WS:-$here/build_ws}"
