@@ -701,3 +701,26 @@ TEST(SceneEval, TheSameLinesInTheOtherOrderGiveTheSameFaces) {
     }
   }
 }
+
+TEST(SceneEval, EachSweepShowsItsLinesPoseError) {
+  // The grouper's diagnostic: the noise model's line term measured on each
+  // sweep (core::estimateLineSigma). A real rig's errors (encoder steps,
+  // backlash, timing, mount; --realistic) show more than the ideal head's.
+  const auto measure = [](bool realistic) {
+    sim::SceneEvalOptions o;
+    o.scene = "stairs";
+    o.sweeps = 4;
+    if (realistic) sim::setRealistic(o.rig, o.noise);
+    std::vector<double> deg;
+    o.on_sweep = [&](const core::SweepResult& sw) { deg.push_back(core::estimateLineSigma(sw) * 180.0 / M_PI); };
+    sim::evaluateScene(o);
+    std::sort(deg.begin(), deg.end());
+    return deg.empty() ? -1.0 : deg[deg.size() / 2];
+  };
+  const double ideal = measure(false), real = measure(true);
+  std::printf("line pose error, median of 4 sweeps: ideal %.3f deg, realistic %.3f deg\n", ideal, real);
+  EXPECT_GE(ideal, 0.0);
+  EXPECT_LT(ideal, 0.12);
+  EXPECT_GT(real, ideal);
+  EXPECT_LT(real, 0.3);
+}

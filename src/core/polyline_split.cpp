@@ -430,6 +430,18 @@ double estimateLineSigma(const std::vector<Eigen::Vector3f>& points, int width, 
   return std::sqrt(std::max(0.0, so * so - noise_share * sd * sd));
 }
 
+double estimateLineSigma(const SweepResult& sweep) {
+  std::size_t width = 0;
+  for (const SweepLine& l : sweep.lines) width = std::max(width, l.points.size());
+  if (width == 0 || sweep.lines.size() < 4) return 0.0;
+  std::vector<Eigen::Vector3f> points(width * sweep.lines.size(),
+                                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  for (std::size_t r = 0; r < sweep.lines.size(); ++r)
+    std::copy(sweep.lines[r].points.begin(), sweep.lines[r].points.end(), points.begin() + r * width);
+  return estimateLineSigma(points, static_cast<int>(width), static_cast<int>(sweep.lines.size()), true,
+                           meanOrigin(sweep));
+}
+
 double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping) {
   const double k = noise.sigma > 0.0 ? std::clamp(noise.sigma / kDefaultToleranceNoise, 0.2, 1.0) : 1.0;
   split.d_min *= k;

@@ -10,6 +10,7 @@
 
 #include "tilt_laser_perception/HeightMap.h"
 #include "tilt_laser_perception/PlanePolygonArray.h"
+#include "tilt_laser_perception/core/polyline_split.hpp"
 #include "tilt_laser_perception/ros/conversions.hpp"
 
 namespace tilt_laser_perception {
@@ -471,6 +472,8 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   sweeps_out_.add(InputHealth::now());
   ++published_;
   checkCalibration(&sweep);
+  // The noise model's line term as this sweep shows it (after the outputs: not in the latency).
+  last_line_sigma_deg_ = core::estimateLineSigma(sweep) * 180.0 / M_PI;
   // The clouds for rviz are built only while somebody listens.
   const auto publishCloud = [&](ros::Publisher& pub, const auto& fill) {
     if (pub.getNumSubscribers() == 0) return;
@@ -528,6 +531,8 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("planes (last sweep)", last_planes_);
   stat.add("grouping as lines came [ms] (last sweep)", last_group_ms_);
   stat.add("latency after the last line [ms] (last sweep)", last_latency_ms_);
+  stat.addf("line pose error [deg] (last sweep, estimated; ~line_sigma_deg applied)", "%.3f (%.3f)",
+            last_line_sigma_deg_, sweep_params_.grouping.line_sigma * 180.0 / M_PI);
   if (fused_) {
     stat.add("fused map: distance walked [m]", fused_->travelled());
     stat.add("fused map: terrain planes", fused_->map().planes().size());

@@ -11,6 +11,7 @@
 
 #include "tilt_laser_perception/core/grouping.hpp"
 #include "tilt_laser_perception/core/scan_split.hpp"
+#include "tilt_laser_perception/core/sweep.hpp"
 
 namespace tilt_laser_perception {
 namespace core {
@@ -96,6 +97,11 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
 /// and no line error (a bias: doc/notes/noise_model.md).
 double estimateLineSigma(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
                          const Eigen::Vector3d& origin, int step = 1);
+
+/// The same on a finished sweep: its lines the rows of an organized cloud
+/// (every line as long as the longest, NaN where a beam saw nothing), seen
+/// from the laser's mean place [rad].
+double estimateLineSigma(const SweepResult& sweep);
 
 /// The noise the default tolerances are made for: they hold with the
 /// UTM-30LX's 1 cm on the tilting rig, whose lines are offset from each other
