@@ -96,14 +96,17 @@ bool runBagPipeline(const BagPipelineOptions& o, const std::function<void(double
       if (on_sweep) on_sweep(done);
     }
   }
-  // The recording's end closes the sweep in progress: it has no reversal after it.
-  const unsigned long before = assembler.counters().sweeps;
-  while (assembler.flush(last, done)) {
+  // What is left waits in vain; then the recording's end closes the sweep in
+  // progress, which has no reversal after it.
+  while (assembler.poll(last + o.sweep.max_wait + 1.0, done)) {
+    ++result.sweeps;
+    if (on_sweep) on_sweep(done);
+  }
+  if (assembler.flush(last, done)) {
     ++result.sweeps;
     result.closed_by_end = true;
     if (on_sweep) on_sweep(done);
   }
-  if (assembler.counters().sweeps == before) result.closed_by_end = false;
   result.counters = assembler.counters();
   result.last_warning = assembler.lastWarning();
   return true;

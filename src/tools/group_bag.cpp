@@ -43,16 +43,15 @@ struct Share {
   double fraction() const { return points ? static_cast<double>(best) / points : 0.0; }
 };
 
-/// The share of the points `on` selects that the plane holding most of them holds;
-/// points labelled `skip` are not the surface's.
+/// The share of the points `on` selects (by place and plane label, -1 none) that the plane holding most of them holds.
 Share share(const core::SweepResult& sw, const std::vector<std::vector<int>>& label,
-            const std::function<bool(const Eigen::Vector3f&)>& on, int skip = -3) {
+            const std::function<bool(const Eigen::Vector3f&, int)>& on) {
   Share s;
   std::map<int, int> by_plane;
   for (std::size_t li = 0; li < sw.lines.size(); ++li)
     for (std::size_t i = 0; i < sw.lines[li].points.size(); ++i) {
       const Eigen::Vector3f& p = sw.lines[li].points[i];
-      if (!p.allFinite() || label[li][i] == skip || !on(p)) continue;
+      if (!p.allFinite() || !on(p, label[li][i])) continue;
       ++s.points;
       if (label[li][i] >= 0) ++by_plane[label[li][i]];
     }
@@ -85,7 +84,8 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
         break;
       }
   }
-  const Share floor = share(sw, label, [&](const Eigen::Vector3f& p) { return std::abs(p.z() - floor_z) < 0.05; });
+  const Share floor =
+      share(sw, label, [&](const Eigen::Vector3f& p, int) { return std::abs(p.z() - floor_z) < 0.05; });
   // The largest wall: a Hough vote over vertical planes x cos(a) + y sin(a) = d
   // (1 degree, 2 cm) by the points above the floor that lie in vertical planes
   // (normals within 10 degrees of level). A dense table top crosses every
@@ -119,13 +119,10 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
   }
   const double t = best.first * M_PI / 180.0, d = (best.second + 0.5) * 0.02;
   // The wall's points: above the floor, within 5 cm of it, in no plane or a vertical one.
-  std::vector<std::vector<int>> wall_label = label;
-  for (auto& l : wall_label)
-    for (int& v : l)
-      if (v >= 0 && !inVertical(v)) v = -2;
-  const Share wall = share(sw, wall_label, [&](const Eigen::Vector3f& p) {
+  const Share wall = share(sw, label, [&](const Eigen::Vector3f& p, int l) {
+    if (l >= 0 && !inVertical(l)) return false;
     return p.z() > floor_z + 0.1 && std::abs(p.x() * std::cos(t) + p.y() * std::sin(t) - d) < 0.05;
-  }, -2);
+  });
   std::printf("  room: floor at z=%.3f m: %d points, %.1f %% in plane %d; largest wall (normal %.0f deg, %.2f m): %d points, "
               "%.1f %% in plane %d\n",
               floor_z, floor.points, 100.0 * floor.fraction(), floor.plane, best.first * 1.0, d, wall.points,
