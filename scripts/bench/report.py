@@ -181,6 +181,20 @@ class Report:
                            [["median", f"{cpu:.2f}", f"{rss:.1f}"]]))
 
     # ---- data nobody here made ----------------------------------------------
+    def bag_rows(self, rows, bag, out_bag, args):
+        """group_bag on an imported recording: a row per sweep (planes, floor and largest wall in one plane)."""
+        out = run([self.tool("group_bag"), out_bag, "--urdf", out_bag[:-4] + ".urdf"] + args)
+        planes = re.findall(r"sweep \d+: \d+ lines, (\d+) planes", out)
+        for k, m in enumerate(re.finditer(r"room: floor at z=[-0-9.]+ m: \d+ points, ([0-9.]+) % in plane -?\d+; "
+                                          r"(?:largest wall \(normal (\d+) deg, [-0-9.]+ m\): \d+ points, ([0-9.]+) %"
+                                          r"|no vertical plane)", out)):
+            wall = f"largest wall {m.group(3)} %" if m.group(3) else "no vertical plane"
+            rows.append([f"{bag} sweep {k} (import_tilt_bag.py, group_bag {' '.join(args)})",
+                         f"{planes[k] if k < len(planes) else '?'} planes; floor {m.group(1)} % in one plane, "
+                         f"{wall} in one plane"])
+        if "closed sweep" in out:
+            rows[-1][1] += " (the recording's end closed this sweep)"
+
     def other_rigs(self):
         data = os.path.join(self.shared, "data")
         if not os.path.isdir(data):
@@ -204,17 +218,8 @@ class Report:
             run([sys.executable, os.path.join(ROOT, "scripts", "import_tilt_bag.py"), path, out_bag])
             # room_240's stand stands on a table: the room's floor is at z = 0.10 m (../shared/data/README.md)
             floor = ["--floor-z", "0.10"] if bag == "room_240" else ["--room"]
-            out = run([self.tool("group_bag"), out_bag, "--urdf", out_bag[:-4] + ".urdf"] + floor)
-            for k, m in enumerate(re.finditer(r"room: floor at z=[-0-9.]+ m: \d+ points, ([0-9.]+) % in plane -?\d+; "
-                                              r"(?:largest wall \(normal (\d+) deg, [-0-9.]+ m\): \d+ points, ([0-9.]+) %"
-                                              r"|no vertical plane)", out)):
-                planes = re.findall(r"sweep \d+: \d+ lines, (\d+) planes", out)
-                wall = f"largest wall {m.group(3)} %" if m.group(3) else "no vertical plane"
-                rows.append([f"{bag} sweep {k} (import_tilt_bag.py, group_bag {' '.join(floor)})",
-                             f"{planes[k] if k < len(planes) else '?'} planes; floor {m.group(1)} % in one plane, "
-                             f"{wall} in one plane"])
-            if "closed sweep" in out:
-                rows[-1][1] += " (the recording's end closed this sweep)"
+            for order in ([], ["--reverse"]):
+                self.bag_rows(rows, bag, out_bag, floor + order)
         shutil.rmtree(tmp, ignore_errors=True)
         dtk = os.path.join(data, "real", "3dtk", "scan000.3d")
         if os.path.exists(dtk):
@@ -237,7 +242,7 @@ class Report:
                          "(issue 39)"])
         self.section("Data from elsewhere", "BIN/segment_cloud CLOUD --truth-field intensity [--noise auto]; "
                      "python3 scripts/import_tilt_bag.py BAG OUT.bag && BIN/group_bag OUT.bag --urdf OUT.urdf --room "
-                     "(room_240: --floor-z 0.10); BIN/segment_cloud scan000.3d --surface ceiling:-40,40,-40,40,1.85,2.15 "
+                     "[--reverse] (room_240: --floor-z 0.10); BIN/segment_cloud scan000.3d --surface ceiling:-40,40,-40,40,1.85,2.15 "
                      "--surface floor:-40,40,-40,40,-0.6,-0.3 [--reverse] [--line-sigma-deg 0]",
                      f"The recordings and clouds of `{os.path.relpath(data, ROOT)}` (its README says what each is). "
                      "`--room`: the share of the floor (the lowest level holding 2 % of the points, or the level "
@@ -306,6 +311,9 @@ class Report:
         return table(["what", "figure"], rows)
 
 
+STEPS = ("scenes", "walking", "figure3", "speed", "calibration", "other_rigs", "pipeline")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--ws", default=os.path.join(ROOT, "build_ws"))
@@ -313,14 +321,21 @@ def main():
     ap.add_argument("--out", default=os.path.join(ROOT, "doc", "evaluation.md"))
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--no-readme", action="store_true")
+    ap.add_argument("--only", choices=STEPS, help="run this section alone and print it; write nothing")
+    ap.add_argument("--bin", help="the tools' directory (default: the workspace's); with --only, to compare builds")
     a = ap.parse_args()
-    bin_dir = os.path.join(a.ws, "install", "tilt_laser_perception", "lib", "tilt_laser_perception")
+    bin_dir = a.bin or os.path.join(a.ws, "install", "tilt_laser_perception", "lib", "tilt_laser_perception")
     if not os.path.exists(os.path.join(bin_dir, "evaluate")):
         sys.exit(f"no build in {a.ws}: run scripts/build.sh (or scripts/report.sh)")
     t0 = time.time()
     r = Report(bin_dir, os.path.abspath(a.ws), os.path.abspath(a.shared), a.quick)
-    for step in (r.scenes, r.walking, r.figure3, r.speed, r.calibration, r.other_rigs, r.pipeline):
-        step()
+    if a.only:
+        getattr(r, a.only)()
+        for title, command, text in r.sections:
+            print(f"## {title}\n\n`{command}`\n\n{text}\n")
+        return
+    for step in STEPS:
+        getattr(r, step)()
     r.write(a.out, None if a.no_readme else os.path.join(ROOT, "README.md"), time.time() - t0)
     print(f"wrote {a.out} in {(time.time() - t0) / 60:.1f} minutes")
 

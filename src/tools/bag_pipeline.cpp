@@ -20,6 +20,10 @@ namespace tools {
 
 bool parseBagOption(int argc, char** argv, int& i, BagPipelineOptions& o) {
   const std::string a = argv[i];
+  if (a == "--reverse") {  // each sweep's lines grouped in the other order
+    o.sweep.reverse_lines = true;
+    return true;
+  }
   if (i + 1 >= argc) return false;
   if (a == "--urdf") o.urdf = argv[++i];
   else if (a == "--frame") o.frame = argv[++i];

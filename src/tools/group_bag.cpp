@@ -33,7 +33,7 @@ namespace {
 void usage() {
   std::fprintf(stderr,
                "usage: group_bag BAG --urdf FILE [--frame F] [--joint J] [--laser L] [--calibration FILE] [--dump PREFIX]\n"
-               "                 [--room] [--floor-z Z]\n");
+               "                 [--reverse] [--room] [--floor-z Z]\n");
 }
 
 struct Share {
