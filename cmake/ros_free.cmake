@@ -13,6 +13,7 @@ add_library(tlp_core
   ${TLP_ROOT}/src/core/plane.cpp
   ${TLP_ROOT}/src/core/grouping.cpp
   ${TLP_ROOT}/src/core/noise_model.cpp
+  ${TLP_ROOT}/src/core/scan_order.cpp
   ${TLP_ROOT}/src/core/sweep.cpp
   ${TLP_ROOT}/src/core/height_map.cpp
   ${TLP_ROOT}/src/core/fused_map.cpp

@@ -18,6 +18,7 @@
 
 #include "tilt_laser_perception/core/plane.hpp"
 #include "tilt_laser_perception/core/polyline_split.hpp"
+#include "tilt_laser_perception/core/scan_order.hpp"
 #include "tilt_laser_perception/io/pcd.hpp"
 #include "tilt_laser_perception/sim/evaluation.hpp"
 
@@ -74,16 +75,20 @@ void judgeSurface(const Surface& sf, const std::vector<Eigen::Vector3f>& pts, co
       if (labels[i] != 0) ++by_plane[labels[i]];
     }
   std::vector<int> counts;
-  for (const auto& [l, c] : by_plane) counts.push_back(c);
+  std::uint32_t largest = 0;  // its label
+  for (const auto& [l, c] : by_plane) {
+    if (counts.empty() || c > *std::max_element(counts.begin(), counts.end())) largest = l;
+    counts.push_back(c);
+  }
   std::sort(counts.rbegin(), counts.rend());
   int to80 = 0, sum = 0;
   while (to80 < static_cast<int>(counts.size()) && sum < 0.8 * n) sum += counts[to80++];
   const int in_planes = std::accumulate(counts.begin(), counts.end(), 0);
   std::printf("surface %s: %d points within %.1f cm of its plane (normal %.3f %.3f %.3f, rms %.1f cm); largest plane "
-              "%.1f %%, in planes %.1f %%, planes for 80 %%: %s\n",
+              "%.1f %% (plane %d), in planes %.1f %%, planes for 80 %%: %s\n",
               sf.name.c_str(), n, 100.0 * band, f.normal.x(), f.normal.y(), f.normal.z(), 100.0 * f.rms,
-              n ? 100.0 * (counts.empty() ? 0 : counts[0]) / n : 0.0, n ? 100.0 * in_planes / n : 0.0,
-              sum >= 0.8 * n ? std::to_string(to80).c_str() : "never");
+              n ? 100.0 * (counts.empty() ? 0 : counts[0]) / n : 0.0, counts.empty() ? -1 : static_cast<int>(largest),
+              n ? 100.0 * in_planes / n : 0.0, sum >= 0.8 * n ? std::to_string(to80).c_str() : "never");
 }
 }  // namespace
 
@@ -97,6 +102,9 @@ static void usage() {
                "  PCD data ascii, binary or binary_compressed, fields in any order (PCL's reader)\n"
                "  a .3d file is a 3DTK scan (x y z in cm, left-handed, y up; a row a scan line), taken to metres, z up\n"
                "  --reverse           the scan lines in the other order (the result should not depend on it)\n"
+               "  --origin X,Y,Z --axis X,Y,Z  a flat cloud (HEIGHT 1) of a spinning laser, its points in the order\n"
+               "                      measured: where the laser is and the axis it spins about [m]; its scan lines\n"
+               "                      are rebuilt (a new one where the beam angle falls back) into rows\n"
                "  --surface NAME:X0,X1,Y0,Y1,Z0,Z1  judge one surface (a floor, a ceiling, a wall): the points in the box\n"
                "                      [m] within 3 rms (at least 3 cm) of the plane fitted to them (refitted twice on\n"
                "                      those), the share of them the largest plane holds and how many planes hold 80 %%\n"
@@ -133,6 +141,10 @@ int main(int argc, char** argv) {
   std::string noise = "off";
   double spacing_deg = core::kOrganizedLineSpacing * 180.0 / M_PI;
   int threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
+  Eigen::Vector3d spin_origin = Eigen::Vector3d::Constant(std::nan("")), spin_axis = spin_origin;
+  const auto parseVector = [](const char* text, Eigen::Vector3d& v) {
+    return std::sscanf(text, "%lf,%lf,%lf", &v.x(), &v.y(), &v.z()) == 3 && v.allFinite();
+  };
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool v = i + 1 < argc;
@@ -141,6 +153,9 @@ int main(int argc, char** argv) {
       if (m != "rows" && m != "columns") { usage(); return 2; }
       rows = m == "rows";
     } else if (a == "--reverse") reverse = true;
+    else if ((a == "--origin" || a == "--axis") && v) {
+      if (!parseVector(argv[++i], a == "--origin" ? spin_origin : spin_axis)) { usage(); return 2; }
+    }
     else if (a == "--ascii") ascii = true;
     else if (a == "--out" && v) out = argv[++i];
     else if (a == "--zeta" && v) split.zeta = std::atof(argv[++i]);
@@ -174,7 +189,25 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    const io::OrganizedCloud c = reverse ? io::reversedLines(io::readCloud(in, truth), rows) : io::readCloud(in, truth);
+    io::OrganizedCloud c = io::readCloud(in, truth);
+    if (c.height == 1 && c.width > 1) {
+      // A spinning laser's flat cloud in scan order: its lines rebuilt.
+      if (!spin_origin.allFinite() || !spin_axis.allFinite() || !(spin_axis.norm() > 0.0))
+        throw std::runtime_error(in + " is a flat cloud (HEIGHT 1): if its points are a spinning laser's in the order "
+                                 "measured, give --origin X,Y,Z and --axis X,Y,Z to rebuild its scan lines");
+      if (!c.truth.empty()) throw std::runtime_error(in + ": a flat cloud's truth field is not read");
+      const core::ScanLines sl = core::rebuildScanLines(c.points, spin_origin, spin_axis);
+      if (sl.width == 0) throw std::runtime_error(in + ": no scan lines found in the order of its points");
+      std::printf("%s: %d scan lines of up to %d beams %.3f deg apart rebuilt from the order measured (%d points on "
+                  "a beam already taken, %d not finite: left out)\n",
+                  in.c_str(), sl.height, sl.width, sl.beam_step * 180.0 / M_PI, sl.collided, sl.dropped);
+      c.points = sl.points;
+      c.width = sl.width;
+      c.height = sl.height;
+      c.viewpoint = spin_origin;
+      rows = true;
+    }
+    if (reverse) c = io::reversedLines(c, rows);
     if (c.height < 2 || c.width < 2) throw std::runtime_error(in + " is not organized (HEIGHT and WIDTH must be > 1)");
     std::vector<core::Plane> planes;
     std::vector<std::uint32_t> labels;
