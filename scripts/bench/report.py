@@ -320,7 +320,9 @@ class Report:
                 ["clutter scene (simulated), per sweep", s.get("clutter", "not measured")],
                 ["walking towards the stairs", s.get("walk", "not measured")],
                 ["a real tilting stand (room_240, its first sweep)", s.get("room", "not measured")],
-                ["a real nodding SICK scan (3DTK scan000)", s.get("dtk", "not measured")]]
+                ["a real nodding SICK scan (3DTK scan000)", s.get("dtk", "not measured")],
+                ["a real spinning UTM-30LX's flat cloud (DRC tilted-steps, segment_cloud --origin --axis)",
+                 s.get("drc", "not measured")]]
         return table(["what", "figure"], rows)
 
 
