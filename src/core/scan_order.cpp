@@ -34,21 +34,17 @@ ScanLines rebuildScanLines(const std::vector<Eigen::Vector3f>& points, const Eig
     const Eigen::Vector3d r = d - along * a;
     const double radial = r.norm();
     const double from_axis = std::atan2(radial, along);
-    if (from_axis < kAxisZone || from_axis > M_PI - kAxisZone || std::isnan(plane)) {
-      // Near the axis: the side the plane says, if it is known yet.
-      const double spin = std::atan2(r.dot(e2), r.dot(e1));
-      const bool plus = std::isnan(plane) || radial == 0.0 || std::cos(spin - plane) >= 0.0;
-      beam[i] = (plus ? 1.0 : -1.0) * from_axis;
-      if (std::isnan(plane) && from_axis >= kAxisZone && from_axis <= M_PI - kAxisZone) plane = spin;
-      continue;
-    }
     const double spin = std::atan2(r.dot(e2), r.dot(e1));
-    const bool plus = std::cos(spin - plane) >= 0.0;
-    plane = plus ? spin : wrap(spin + M_PI);
+    const bool away = from_axis >= kAxisZone && from_axis <= M_PI - kAxisZone;
+    if (std::isnan(plane) && away) plane = spin;
+    // Near the axis (or before the plane is known): the side the plane says.
+    const bool plus = std::isnan(plane) || radial == 0.0 || std::cos(spin - plane) >= 0.0;
     beam[i] = (plus ? 1.0 : -1.0) * from_axis;
+    if (away) plane = plus ? spin : wrap(spin + M_PI);
   }
   // The scan's direction and its beam step: the differences of neighbouring
-  // points within a line (small ones), their sign and their median size.
+  // points within a line (small ones), the sign most have and the lower
+  // quartile of their sizes.
   std::vector<double> steps;
   double prev = std::numeric_limits<double>::quiet_NaN();
   int up = 0, down = 0;
@@ -65,9 +61,8 @@ ScanLines rebuildScanLines(const std::vector<Eigen::Vector3f>& points, const Eig
   }
   if (steps.size() < 2) return out;
   const double dir = up >= down ? 1.0 : -1.0;
+  // (Most neighbours are adjacent beams, some skip beams with no return.)
   std::nth_element(steps.begin(), steps.begin() + steps.size() / 4, steps.end());
-  // The lower quartile: most neighbours are adjacent beams, some skip the
-  // beams with no return between them.
   out.beam_step = steps[steps.size() / 4];
   if (!(out.beam_step > 0.0)) return out;
   // Lines: a new one where the beam angle falls back by more than a beam
