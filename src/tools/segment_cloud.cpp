@@ -75,9 +75,12 @@ void judgeSurface(const Surface& sf, const std::vector<Eigen::Vector3f>& pts, co
       if (labels[i] != 0) ++by_plane[labels[i]];
     }
   std::vector<int> counts;
-  std::uint32_t largest = 0;  // its label
+  int largest = -1, most = 0;  // the label holding most, and how many
   for (const auto& [l, c] : by_plane) {
-    if (counts.empty() || c > *std::max_element(counts.begin(), counts.end())) largest = l;
+    if (c > most) {
+      most = c;
+      largest = static_cast<int>(l);
+    }
     counts.push_back(c);
   }
   std::sort(counts.rbegin(), counts.rend());
@@ -87,7 +90,7 @@ void judgeSurface(const Surface& sf, const std::vector<Eigen::Vector3f>& pts, co
   std::printf("surface %s: %d points within %.1f cm of its plane (normal %.3f %.3f %.3f, rms %.1f cm); largest plane "
               "%.1f %% (plane %d), in planes %.1f %%, planes for 80 %%: %s\n",
               sf.name.c_str(), n, 100.0 * band, f.normal.x(), f.normal.y(), f.normal.z(), 100.0 * f.rms,
-              n ? 100.0 * (counts.empty() ? 0 : counts[0]) / n : 0.0, counts.empty() ? -1 : static_cast<int>(largest),
+              n ? 100.0 * (counts.empty() ? 0 : counts[0]) / n : 0.0, largest,
               n ? 100.0 * in_planes / n : 0.0, sum >= 0.8 * n ? std::to_string(to80).c_str() : "never");
 }
 }  // namespace
@@ -196,12 +199,12 @@ int main(int argc, char** argv) {
         throw std::runtime_error(in + " is a flat cloud (HEIGHT 1): if its points are a spinning laser's in the order "
                                  "measured, give --origin X,Y,Z and --axis X,Y,Z to rebuild its scan lines");
       if (!c.truth.empty()) throw std::runtime_error(in + ": a flat cloud's truth field is not read");
-      const core::ScanLines sl = core::rebuildScanLines(c.points, spin_origin, spin_axis);
+      core::ScanLines sl = core::rebuildScanLines(c.points, spin_origin, spin_axis);
       if (sl.width == 0) throw std::runtime_error(in + ": no scan lines found in the order of its points");
       std::printf("%s: %d scan lines of up to %d beams %.3f deg apart rebuilt from the order measured (%d points on "
                   "a beam already taken, %d not finite: left out)\n",
                   in.c_str(), sl.height, sl.width, sl.beam_step * 180.0 / M_PI, sl.collided, sl.dropped);
-      c.points = sl.points;
+      c.points = std::move(sl.points);
       c.width = sl.width;
       c.height = sl.height;
       c.viewpoint = spin_origin;
