@@ -28,7 +28,9 @@ struct Truth {
 /// -135..135 degrees 0.25 apart, on the ground z = 0 and a box, cropped to 4 m.
 /// `keep` decides whether a point is kept (points with no return left out).
 Truth spinningScan(const Eigen::Vector3d& o, const Eigen::Vector3d& axis, int lines, double spin0,
-                   const std::function<bool(int line, int beam)>& keep) {
+                   const std::function<bool(int line, int beam)>& keep, double wall_x = 0.0, double noise = 0.0) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> range_noise(0.0, noise);
   Truth t;
   const Eigen::Vector3d a = axis.normalized(), e1 = a.unitOrthogonal(), e2 = a.cross(e1);
   for (int k = 0; k < lines; ++k) {
@@ -47,6 +49,9 @@ Truth spinningScan(const Eigen::Vector3d& o, const Eigen::Vector3d& axis, int li
         const Eigen::Vector3d q = o + s_top * d;
         if (q.x() >= 1.0 && q.x() <= 1.4 && std::abs(q.y()) < 0.3) p = q;
       }
+      // a wall x = wall_x (when given), where it is nearer than the rest
+      if (wall_x > 0.0 && d.x() > 1e-6 && (wall_x - o.x()) / d.x() < (p - o).norm()) p = o + (wall_x - o.x()) / d.x() * d;
+      if (noise > 0.0) p += range_noise(rng) * d;
       if ((p - o).norm() > 4.0 || !keep(k, j)) continue;
       t.points.push_back(p.cast<float>());
       t.line_beam.emplace_back(k, j);
@@ -134,4 +139,42 @@ TEST(ScanOrder, BadInputGivesNothingOrSkipsThePoint) {
   int kept = 0;
   for (const Eigen::Vector3f& p : s.points) kept += p.allFinite();
   EXPECT_EQ(kept, static_cast<int>(t.points.size()) + 1);
+}
+
+TEST(ScanOrder, SpinGeometryFromTheLinesAlone) {
+  // Ground and a wall 3 m ahead (lines over them bend at the wall's foot),
+  // 5 mm of range noise: the axis within 0.05 degrees, the laser within 2 cm
+  // of its place, the beams' step 0.25 degrees; the lines rebuilt from the
+  // estimates are the lines. The sign of the axis: towards the points.
+  const Truth t = spinningScan(kOrigin, kAxis, 200, 0.2, [](int, int) { return true; }, 3.0, 0.005);
+  const SpinGeometry g = estimateSpinGeometry(t.points);
+  ASSERT_TRUE(g.ok) << g.why;
+  EXPECT_LT(std::acos(std::min(1.0, g.axis.dot(kAxis.normalized()))) / kDeg, 0.05);
+  EXPECT_LT((g.origin - kOrigin).norm(), 0.02) << g.origin.transpose() << " step " << g.beam_step / kDeg << " n " << g.stretches << " rms " << g.plane_rms << " spread " << g.step_spread;
+  EXPECT_NEAR(g.beam_step / kDeg, 0.25, 0.002);
+  EXPECT_GT(g.stretches, 100);
+  EXPECT_LT(g.plane_rms, 0.005);
+  const ScanLines s = rebuildScanLines(t.points, g.origin, g.axis);
+  expectLinesAndBeams(t, s);
+  // Given the axis, the same origin; given the origin, the same axis.
+  EXPECT_LT((estimateSpinGeometry(t.points, Eigen::Vector3d::Constant(std::nan("")), -kAxis).origin - kOrigin).norm(),
+            0.02);
+  EXPECT_LT(std::acos(std::min(1.0, estimateSpinGeometry(t.points, kOrigin).axis.dot(kAxis.normalized()))) / kDeg,
+            0.05);
+}
+
+TEST(ScanOrder, SpinGeometryNeedsLinesThatBend) {
+  // Lines over flat ground alone are straight: any plane through each holds
+  // it, and no axis follows. Too few points, the same.
+  const Truth flat = spinningScan(kOrigin, kAxis, 100, 0.0, [](int, int) { return true; });
+  std::vector<Eigen::Vector3f> ground;
+  for (const Eigen::Vector3f& p : flat.points)
+    if (std::abs(p.z()) < 1e-4) ground.push_back(p);
+  const SpinGeometry g = estimateSpinGeometry(ground);
+  EXPECT_FALSE(g.ok);
+  EXPECT_NE(g.why.find("flat ground"), std::string::npos) << g.why;
+  EXPECT_EQ(g.stretches, 0);
+  const SpinGeometry few = estimateSpinGeometry(std::vector<Eigen::Vector3f>(ground.begin(), ground.begin() + 10));
+  EXPECT_FALSE(few.ok);
+  EXPECT_EQ(few.why, "too few points");
 }

@@ -107,7 +107,9 @@ static void usage() {
                "  --reverse           the scan lines in the other order (the result should not depend on it)\n"
                "  --origin X,Y,Z --axis X,Y,Z  a flat cloud (HEIGHT 1) of a spinning laser, its points in the order\n"
                "                      measured: where the laser is and the axis it spins about [m]; its scan lines\n"
-               "                      are rebuilt (a new one where the beam angle falls back) into rows\n"
+               "                      are rebuilt (a new one where the beam angle falls back) into rows; either\n"
+               "                      not given is estimated (each line lies in a plane containing the axis; the\n"
+               "                      laser is where its beams lie evenly apart) and printed\n"
                "  --surface NAME:X0,X1,Y0,Y1,Z0,Z1  judge one surface (a floor, a ceiling, a wall): the points in the box\n"
                "                      [m] within 3 rms (at least 3 cm) of the plane fitted to them (refitted twice on\n"
                "                      those), the share of them the largest plane holds and how many planes hold 80 %%\n"
@@ -195,9 +197,22 @@ int main(int argc, char** argv) {
     io::OrganizedCloud c = io::readCloud(in, truth);
     if (c.height == 1 && c.width > 1) {
       // A spinning laser's flat cloud in scan order: its lines rebuilt.
-      if (!spin_origin.allFinite() || !spin_axis.allFinite() || !(spin_axis.norm() > 0.0))
-        throw std::runtime_error(in + " is a flat cloud (HEIGHT 1): if its points are a spinning laser's in the order "
-                                 "measured, give --origin X,Y,Z and --axis X,Y,Z to rebuild its scan lines");
+      if (!spin_origin.allFinite() || !spin_axis.allFinite() || !(spin_axis.norm() > 0.0)) {
+        const auto t_est = std::chrono::steady_clock::now();
+        const core::SpinGeometry g = core::estimateSpinGeometry(c.points, spin_origin, spin_axis);
+        const double est_ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_est).count();
+        if (!g.ok)
+          throw std::runtime_error(in + " is a flat cloud (HEIGHT 1) whose spin axis could not be found (" + g.why +
+                                   "): if its points are a spinning laser's in the order measured, give --origin "
+                                   "X,Y,Z and --axis X,Y,Z");
+        std::printf("spin axis estimated from %d stretches of points (their planes %.1f mm from it): origin %.4f,%.4f,"
+                    "%.4f axis %.5f,%.5f,%.5f; beams %.4f deg apart from there (spread %.1f %%); %.0f ms\n",
+                    g.stretches, 1e3 * g.plane_rms, g.origin.x(), g.origin.y(), g.origin.z(), g.axis.x(), g.axis.y(),
+                    g.axis.z(), g.beam_step * 180.0 / M_PI, 100.0 * g.step_spread, est_ms);
+        spin_origin = g.origin;
+        spin_axis = g.axis;
+      }
       if (!c.truth.empty()) throw std::runtime_error(in + ": a flat cloud's truth field is not read");
       core::ScanLines sl = core::rebuildScanLines(c.points, spin_origin, spin_axis);
       if (sl.width == 0) throw std::runtime_error(in + ": no scan lines found in the order of its points");

@@ -14,6 +14,8 @@
  */
 #pragma once
 
+#include <cmath>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -30,6 +32,28 @@ struct ScanLines {
   int collided = 0;                     ///< points left out: a second point on a line's beam
   int dropped = 0;                      ///< points left out: not finite
 };
+
+/// Where a spinning laser is and the axis it spins about, found from its
+/// flat cloud alone: each line lies in a plane through the laser containing
+/// the axis, so the planes of stretches of points that are planar but not
+/// straight (a line over a crease or a block) all contain the axis; along
+/// the axis, the laser is where its beams lie evenly apart.
+struct SpinGeometry {
+  bool ok = false;
+  std::string why;                                   ///< when not ok: what the cloud lacks
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< on the axis [m]
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();   ///< unit, towards the points
+  int stretches = 0;         ///< planar, not straight stretches of points used
+  double plane_rms = 0.0;    ///< their planes' distance from the axis line [m]
+  double beam_step = 0.0;    ///< the beams' spacing seen from `origin` [rad]
+  double step_spread = 0.0;  ///< its interquartile range, relative: how evenly they lie
+};
+
+/// Estimates what `points` (in the order measured) leave unknown: the axis
+/// when `axis` is zero or not finite, the origin when `origin` is not finite.
+SpinGeometry estimateSpinGeometry(const std::vector<Eigen::Vector3f>& points,
+                                  const Eigen::Vector3d& origin = Eigen::Vector3d::Constant(std::nan("")),
+                                  const Eigen::Vector3d& axis = Eigen::Vector3d::Zero());
 
 /// Rebuilds the lines of `points` (in the order measured), seen from
 /// `origin`, the laser spinning about `axis` (any length but zero). Empty
