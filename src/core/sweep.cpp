@@ -20,6 +20,8 @@ std::string SweepParams::validate() const {
   if (!in(max_dropped_fraction, -1e-12, 1.0)) return "max_dropped_fraction must be in [0, 1]";
   if (!(min_lines >= 1 && max_lines >= min_lines)) return "need 1 <= min_sweep_lines <= max_sweep_lines";
   if (!in(time_jump_back, 0.0, 1e6)) return "time_jump_back must be > 0 s";
+  if (!(std::isfinite(spin_span) && spin_span >= 0.0 && spin_span <= 2.0 * M_PI + 1e-9))
+    return "spin_span must be 0 (nodding) or in (0, 2 pi] rad";
   const std::string limits = scan_limits.validate();
   return limits.empty() ? grouping.validate() : limits;
 }
@@ -122,9 +124,21 @@ void SweepAssembler::addJoint(double t, double q) {
   }
   const Jump jump = jumpBack(t, last_joint_t_, joint_jump_);
   if (jump == Jump::Restart) restart();
+  // A spinning joint's reading wraps (a servo's position within a turn):
+  // unwrapped, it turns on (it moves less than half a turn between readings).
+  const double raw = q;
+  if (p_.spin_span > 0.0 && have_extreme_) q = last_q_ + std::remainder(raw - last_raw_q_, 2.0 * M_PI);
   if (jump == Jump::Suspect || !joints_.add(t, q)) {
     ++counters_.joints_out_of_order;
     warning_ = "joint state out of order: dropped";
+    return;
+  }
+  if (p_.spin_span > 0.0) {
+    if (have_extreme_) spinBoundaries(last_joint_t_, last_q_, t, q);
+    have_extreme_ = true;
+    last_joint_t_ = t;
+    last_raw_q_ = raw;
+    last_q_ = q;
     return;
   }
   last_joint_t_ = t;
@@ -152,6 +166,19 @@ void SweepAssembler::addJoint(double t, double q) {
     direction_ = -direction_;
     extreme_q_ = q;
     extreme_t_ = t;
+  }
+}
+
+void SweepAssembler::spinBoundaries(double t0, double q0, double t1, double q1) {
+  // Either way round: the multiples of the span between q0 and q1, in the
+  // order passed.
+  const double k0 = std::floor(q0 / p_.spin_span), k1 = std::floor(q1 / p_.spin_span);
+  if (k0 == k1 || q1 == q0) return;
+  const double step = k1 > k0 ? 1.0 : -1.0;
+  for (double k = k1 > k0 ? k0 + 1.0 : k0; k1 > k0 ? k <= k1 : k > k1; k += step) {
+    const double at = k * p_.spin_span;
+    reversals_.push_back(t0 + (t1 - t0) * (at - q0) / (q1 - q0));
+    ++counters_.reversals;
   }
 }
 

@@ -22,17 +22,52 @@ std::string TiltProfileParams::validate() const {
     s << "hold_time must be >= 0";
   else if (!(tolerance > 0.0))
     s << "tolerance must be > 0";
+  else if (mode == Mode::Spin && !(spin_span > 0.0 && spin_span <= 2.0 * M_PI + 1e-9))
+    s << "spin_span must be in (0, 2 pi] rad";
   return s.str();
 }
 
 void TiltProfile::restart() {
   started_ = false;
+  cmd_sent_ = false;
   in_sweep_ = false;
   reached_at_ = -1.0;
 }
 
+bool TiltProfile::updateSpin(double t, double pos, TiltCommand& cmd, Sweep& done, bool* ended) {
+  // The goal is kept more than half a turn ahead, so the servo never slows
+  // for it; a sweep ends each time the position passes a multiple of the span.
+  if (!started_) {
+    started_ = true;
+    spin_last_ = pos;
+  }
+  const double k = std::floor(pos / p_.spin_span);
+  if (k > std::floor(spin_last_ / p_.spin_span)) {
+    const double at = k * p_.spin_span;
+    if (in_sweep_ && ended) {
+      done.id = next_id_++;
+      done.start_time = sweep_start_t_;
+      done.end_time = t;
+      done.start_angle = sweep_start_angle_;
+      done.end_angle = at;
+      done.upward = true;
+      *ended = true;
+    }
+    in_sweep_ = true;
+    sweep_start_t_ = t;
+    sweep_start_angle_ = at;
+  }
+  spin_last_ = pos;
+  if (goal_ - pos > M_PI && cmd_sent_) return false;
+  goal_ = pos + 2.0 * M_PI;
+  cmd_sent_ = true;
+  cmd = {goal_, p_.speed};
+  return true;
+}
+
 bool TiltProfile::update(double t, double pos, TiltCommand& cmd, Sweep& done, bool* ended) {
   if (ended) *ended = false;
+  if (p_.mode == TiltProfileParams::Mode::Spin) return updateSpin(t, pos, cmd, done, ended);
   const bool step_mode = p_.mode == TiltProfileParams::Mode::StepHold;
   if (!started_) {
     // Go to the nearer end first; the first sweep starts there.

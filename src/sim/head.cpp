@@ -126,13 +126,25 @@ double ServoModel::historyAt(double t) const {
   return a.second + w * (b.second - a.second);
 }
 
-Eigen::Isometry3d HeadGeometry::laserPose(double tilt) const {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.translation() = axis_origin;
-  T.rotate(Eigen::AngleAxisd(tilt + tilt_offset, Eigen::Vector3d::UnitY()));
-  T.translate(laser_offset);
-  return T;
+core::TiltChain HeadGeometry::chain() const {
+  core::TiltChain c;
+  c.base_to_joint = Eigen::Isometry3d::Identity();
+  c.base_to_joint.translation() = axis_origin;
+  c.joint_to_laser = Eigen::Isometry3d::Identity();
+  c.joint_to_laser.translation() = laser_offset;
+  if (spinning) {
+    c.base_to_joint.rotate(Eigen::AngleAxisd(spin_pitch, Eigen::Vector3d::UnitY()));
+    c.base_to_joint.rotate(Eigen::AngleAxisd(tilt_offset, Eigen::Vector3d::UnitX()));
+    c.axis = Eigen::Vector3d::UnitX();
+    c.joint_to_laser.rotate(Eigen::AngleAxisd(laser_to_axis, Eigen::Vector3d::UnitY()));
+  } else {
+    c.base_to_joint.rotate(Eigen::AngleAxisd(tilt_offset, Eigen::Vector3d::UnitY()));
+    c.axis = Eigen::Vector3d::UnitY();
+  }
+  return c;
 }
+
+Eigen::Isometry3d HeadGeometry::laserPose(double tilt) const { return chain().laserPose(tilt); }
 
 HeadGeometry HeadGeometry::load(const std::string& path) {
   HeadGeometry g;
@@ -150,6 +162,9 @@ HeadGeometry HeadGeometry::load(const std::string& path) {
   vec3("axis_origin", g.axis_origin);
   vec3("laser_offset", g.laser_offset);
   if (n["tilt_offset_deg"]) g.tilt_offset = n["tilt_offset_deg"].as<double>() * M_PI / 180.0;
+  if (n["spinning"]) g.spinning = n["spinning"].as<bool>();
+  if (n["spin_pitch_deg"]) g.spin_pitch = n["spin_pitch_deg"].as<double>() * M_PI / 180.0;
+  if (n["laser_to_axis_deg"]) g.laser_to_axis = n["laser_to_axis_deg"].as<double>() * M_PI / 180.0;
   return g;
 }
 

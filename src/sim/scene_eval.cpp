@@ -20,16 +20,7 @@ double cpuNow() { return std::chrono::duration<double>(std::chrono::steady_clock
 
 }  // namespace
 
-core::TiltChain headChain(const HeadGeometry& g) {
-  core::TiltChain c;
-  c.base_to_joint = Eigen::Isometry3d::Identity();
-  c.base_to_joint.translation() = g.axis_origin;
-  c.base_to_joint.rotate(Eigen::AngleAxisd(g.tilt_offset, Eigen::Vector3d::UnitY()));
-  c.axis = Eigen::Vector3d::UnitY();
-  c.joint_to_laser = Eigen::Isometry3d::Identity();
-  c.joint_to_laser.translation() = g.laser_offset;
-  return c;
-}
+core::TiltChain headChain(const HeadGeometry& g) { return g.chain(); }
 
 namespace {
 
@@ -305,8 +296,12 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
 
 std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
   const Scene scene = loadScene(o.scene);
-  const HeadGeometry head = HeadGeometry::load(o.head_file.empty() ? configDirectory() + "/head.yaml" : o.head_file);
-  ServoModel servo(o.profile.min_angle, 0.0);
+  const bool spin = o.profile.mode == core::TiltProfileParams::Mode::Spin;
+  const HeadGeometry head = HeadGeometry::load(
+      o.head_file.empty() ? configDirectory() + (spin ? "/head_spin.yaml" : "/head.yaml") : o.head_file);
+  if (head.spinning != spin || spin != (o.sweep.spin_span > 0.0))
+    throw std::runtime_error("a spinning head needs the spin profile and sweeps cut by angle, a nodding one neither");
+  ServoModel servo(spin ? 0.0 : o.profile.min_angle, 0.0);
   SweepController sweep(servo, o.profile);
   HeadSimulator head_sim(scene, head, servo, o.noise, o.seed, LidarModel(), o.rig);
   const WalkModel walk(scene, o.walk);
@@ -341,6 +336,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
     sweep.update(t);
     if (t + 1e-9 >= next_joint) {
       double q = servo.reading(t);
+      if (spin) q = std::remainder(q, 2.0 * M_PI);  // a servo reads its position within one turn
       if (o.quantize_joint) q = dynamixel::positionToRad(dynamixel::radToPosition(q));
       q += o.calibration.joint_offset;
       if (o.on_joint) o.on_joint(t, q);

@@ -13,10 +13,14 @@ using namespace tilt_laser_perception;
 
 static void usage() {
   std::fprintf(stderr,
-               "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--tilt-range MIN,MAX] [--no-skew] [--reverse] [--fixed D]\n"
+               "usage: evaluate --scene NAME [--sweeps N] [--seed S] [--speed RAD_PER_S] [--tilt-range MIN,MAX] [--spin RAD_PER_S]\n"
+               "                [--head FILE] [--no-skew] [--reverse] [--fixed D]\n"
                "                [--verbose] [--dump PREFIX] [--calibration FILE | --errors-known]\n"
                "                [--walk SPEED [--path straight|turn|step] [--no-pose] ...] [--echo first|last|strongest]\n"
                "  --tilt-range MIN,MAX  the sweep's range [deg] (the driver's ~tilt_min, ~tilt_max; default 10,60)\n"
+               "  --spin RAD_PER_S  a spinning head instead (config/head_spin.yaml: the laser's scan plane containing\n"
+               "              the spin axis), turning on at this rate, a sweep each half turn\n"
+               "  --head FILE the head's geometry (default config/head.yaml, or head_spin.yaml with --spin)\n"
                "  --no-skew   one joint angle per scan line (at its stamp, as one tf per scan gives) instead of one per beam\n"
                "  --reverse   each sweep's lines grouped in the other order (last first): the planes should not depend on it\n"
                "  --line-sigma-deg D  the grouping's line term (each line's own pose error; default 0)\n"
@@ -53,6 +57,13 @@ int main(int argc, char** argv) {
     else if (a == "--sweeps" && v) o.sweeps = std::atoi(argv[++i]);
     else if (a == "--seed" && v) o.seed = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--speed" && v) o.profile.speed = std::atof(argv[++i]);
+    else if (a == "--spin" && v) {
+      // A spinning head (config/head_spin.yaml unless --head), a sweep each half turn.
+      o.profile.mode = core::TiltProfileParams::Mode::Spin;
+      o.profile.speed = std::atof(argv[++i]);
+      o.sweep.spin_span = o.profile.spin_span;
+    }
+    else if (a == "--head" && v) o.head_file = argv[++i];
     else if (a == "--tilt-range" && v) {
       double lo = 0.0, hi = 0.0;
       if (std::sscanf(argv[++i], "%lf,%lf", &lo, &hi) != 2 || !(lo < hi)) { usage(); return 2; }

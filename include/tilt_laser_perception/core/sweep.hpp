@@ -56,6 +56,11 @@ class JointBuffer {
 
 struct SweepParams {
   double reversal_hysteresis = 0.005;  ///< the joint must come back this far from an extreme to count as a reversal [rad]
+  /// 0: a nodding head, whose sweeps end at its reversals. > 0: a spinning
+  /// head (the joint turns on, its readings wrapped or not): the angle is
+  /// unwrapped, and a sweep ends each time it passes a multiple of this
+  /// (pi: a half turn, which sees everything once) [rad].
+  double spin_span = 0.0;
   double max_joint_gap = 0.05;         ///< longest gap between joint states to interpolate over [s]
   double max_wait = 0.3;               ///< a scan line waits this long for joint states [s]
   double max_dropped_fraction = 0.1;   ///< a sweep with more dropped lines is dropped [1]
@@ -220,6 +225,10 @@ class SweepAssembler {
   int n_intervals_ = 0;
   double sweep_last_mid_ = 0.0;  ///< middle of the last line taken for the sweep in progress (kept or dropped) [s]
   double extreme_q_ = 0.0, extreme_t_ = 0.0, last_joint_t_ = -1e300;
+  double last_raw_q_ = 0.0, last_q_ = 0.0;  ///< spin: the last reading as it came and unwrapped [rad]
+  /// Spin: the sweep boundaries (multiples of spin_span) the joint passed
+  /// from (t0, q0) to (t1, q1), at their times by interpolation.
+  void spinBoundaries(double t0, double q0, double t1, double q1);
   ScanLineGrouper grouper_;
   bool in_sweep_ = false;
   SweepResult current_;

@@ -14,7 +14,10 @@ namespace tilt_laser_perception {
 namespace core {
 
 struct TiltProfileParams {
-  enum class Mode { Sweep, StepHold };
+  /// Sweep: to and fro between min_angle and max_angle; StepHold: the same
+  /// in steps, holding still for a scan at each; Spin: turning on at `speed`
+  /// (the MX-64's wheel or multi-turn mode), a sweep every `spin_span`.
+  enum class Mode { Sweep, StepHold, Spin };
   Mode mode = Mode::Sweep;
   double min_angle = 10.0 * 3.14159265358979 / 180.0;  ///< [rad]
   double max_angle = 60.0 * 3.14159265358979 / 180.0;  ///< [rad]
@@ -23,6 +26,7 @@ struct TiltProfileParams {
   double step = 0.5 * 3.14159265358979 / 180.0;  ///< step-and-hold: angle step [rad]
   double hold_time = 0.035;    ///< step-and-hold: time to hold still at each step [s] (one 25 ms scan and a margin)
   double tolerance = 0.003;    ///< a goal is reached within this [rad]
+  double spin_span = 3.14159265358979;  ///< spin: the turn a sweep covers (a half turn sees everything once) [rad]
 
   /// Empty when valid, else a message naming the bad parameter.
   std::string validate() const;
@@ -67,6 +71,9 @@ class TiltProfile {
   bool up_ = true;
   double goal_ = 0.0;
   double sweep_start_t_ = 0.0, sweep_start_angle_ = 0.0;
+  double spin_last_ = 0.0;  // spin: the position at the last update (unwrapped)
+  bool cmd_sent_ = false;   // spin: a goal has been sent since the start
+  bool updateSpin(double t, double position, TiltCommand& cmd, Sweep& done, bool* ended);
   double reached_at_ = -1.0;  // step-and-hold: when the current step was reached
   std::uint32_t next_id_ = 0;
 };

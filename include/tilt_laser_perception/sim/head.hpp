@@ -109,14 +109,27 @@ const char* rigOptionsUsage();
 /// How the laser sits on the head. Frames: base (the robot's base_footprint),
 /// the tilt axis at `axis_origin` (y axis = tilt axis; a positive tilt pitches
 /// the laser down), and the laser at `laser_offset` in the tilting frame.
+///
+/// A spinning head (`spinning`): the joint's axis is the base's x axis
+/// pitched down by `spin_pitch` (the spindle), the laser at `laser_offset` in
+/// the turning frame with its scan plane containing the spin axis, or turned
+/// from it by `laser_to_axis` about the laser's y axis (the tilted variant).
+/// At joint angle 0 the scan plane is the spindle's x-y plane; a turn about
+/// the axis sweeps every plane through it twice (a half turn sees all).
 struct HeadGeometry {
-  Eigen::Vector3d axis_origin{0.0, 0.0, 1.40};   ///< tilt axis in the base frame [m]
-  Eigen::Vector3d laser_offset{0.05, 0.0, 0.06}; ///< laser origin in the tilting frame [m]
+  Eigen::Vector3d axis_origin{0.0, 0.0, 1.40};   ///< tilt axis (spinning: the spindle's origin) in the base frame [m]
+  Eigen::Vector3d laser_offset{0.05, 0.0, 0.06}; ///< laser origin in the tilting (turning) frame [m]
   double tilt_offset = 0.0;                      ///< joint angle at servo centre [rad]
+  bool spinning = false;
+  double spin_pitch = 0.0;                       ///< spinning: the spin axis below the horizontal [rad]
+  double laser_to_axis = 0.0;                    ///< spinning: the scan plane's turn from the axis [rad]
 
   /// Pose of the laser frame in the base frame for a joint angle [rad].
   Eigen::Isometry3d laserPose(double tilt) const;
-  /// Loads axis_origin, laser_offset, tilt_offset_deg from a YAML file (missing keys keep defaults).
+  /// The chain the assembler puts lines in 3D with (the same poses).
+  core::TiltChain chain() const;
+  /// Loads axis_origin, laser_offset, tilt_offset_deg, spinning, spin_pitch_deg,
+  /// laser_to_axis_deg from a YAML file (missing keys keep defaults).
   static HeadGeometry load(const std::string& path);
 };
 
