@@ -57,6 +57,38 @@ double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) 
   return 0.5 * std::abs(a);
 }
 
+/// Area between the chords left[k]-right[k] of successive lines, strip by
+/// strip, in the plane of a fit. The polygon they bound (lefts, then rights
+/// back) has that area while the lines run side by side; a spinning head's
+/// lines all cross where its axis meets a surface, and two chords that cross
+/// bound two triangles, which the polygon's signed area would subtract.
+double stripArea(const std::vector<Eigen::Vector3d>& left, const std::vector<Eigen::Vector3d>& right,
+                 const PlaneFit& f) {
+  const Eigen::Vector3d u = f.normal.unitOrthogonal();
+  const Eigen::Vector3d v = f.normal.cross(u);
+  const auto at = [&](const Eigen::Vector3d& p) { return Eigen::Vector2d(p.dot(u), p.dot(v)); };
+  const auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); };
+  const auto tri = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {
+    return 0.5 * std::abs(cross(b - a, c - a));
+  };
+  double area = 0.0;
+  for (std::size_t k = 0; k + 1 < left.size(); ++k) {
+    const Eigen::Vector2d a0 = at(left[k]), b0 = at(right[k]), a1 = at(left[k + 1]), b1 = at(right[k + 1]);
+    // Where chord 0 crosses chord 1, if within both.
+    const Eigen::Vector2d d0 = b0 - a0, d1 = b1 - a1;
+    const double den = cross(d0, d1);
+    const double s = den != 0.0 ? cross(a1 - a0, d1) / den : -1.0;
+    const double t = den != 0.0 ? cross(a1 - a0, d0) / den : -1.0;
+    if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) {
+      const Eigen::Vector2d x = a0 + s * d0;
+      area += tri(a0, x, a1) + tri(x, b0, b1);
+    } else {
+      area += 0.5 * std::abs(cross(b0 - a0, b1 - a0) + cross(b1 - a0, a1 - a0));
+    }
+  }
+  return area;
+}
+
 /// Two parallel lines share any plane through both, so segments of two lines
 /// seed a plane only side by side: one overlaps the other in beam index by
 /// half its own length or more. The fraction of the longer one overlapped,
@@ -190,6 +222,20 @@ bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b
       if (near(segs_[*i], segs_[*j], limit)) return true;
   }
   return false;
+}
+
+bool ScanLineGrouper::touchAcrossSeam(const std::vector<int>& a, const std::vector<int>& b, double limit) const {
+  if (!p_.cyclic_lines || a.empty() || b.empty() || segs_.empty()) return false;
+  const int gap = p_.max_line_gap + 1, last = segs_.back().line;
+  const auto seam = [&](const std::vector<int>& first, const std::vector<int>& end) {
+    const auto [f0, f1] = membersIn(first, 0, gap - 1);
+    const auto [e0, e1] = membersIn(end, last - gap + 1, last);
+    for (auto i = f0; i != f1; ++i)
+      for (auto j = e0; j != e1; ++j)
+        if (near(segs_[*i], segs_[*j], limit)) return true;
+    return false;
+  };
+  return seam(a, b) || seam(b, a);
 }
 
 int ScanLineGrouper::firstSegmentOf(int line) const {
@@ -737,10 +783,16 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
         if (regions_[b].dead) continue;
         const Region& ra = regions_[a];
         const Region& rb = regions_[b];
-        if (ra.first_line > rb.last_line + p_.max_line_gap + 1 || rb.first_line > ra.last_line + p_.max_line_gap + 1)
-          continue;
+        const bool lines_near =
+            ra.first_line <= rb.last_line + p_.max_line_gap + 1 && rb.first_line <= ra.last_line + p_.max_line_gap + 1;
+        const bool seam = p_.cyclic_lines && std::min(ra.first_line, rb.first_line) <= p_.max_line_gap &&
+                          std::max(ra.last_line, rb.last_line) >= segs_.back().line - p_.max_line_gap;
+        if (!lines_near && !seam) continue;
         if (!planesAgree(ra, rb)) continue;
-        if (!touch(ra.members, rb.members, p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm())) continue;
+        const double limit = p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm();
+        if (!(lines_near && touch(ra.members, rb.members, limit)) &&
+            !(seam && touchAcrossSeam(ra.members, rb.members, limit)))
+          continue;
         absorb(a, b);
         merged = true;
       }
@@ -1269,9 +1321,9 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
     left.push_back(onPlane(first.start, first.origin));
     right.push_back(onPlane(last.end, last.origin));
   }
+  double area = stripArea(left, right, f);
   out.boundary = std::move(left);
   out.boundary.insert(out.boundary.end(), right.rbegin(), right.rend());
-  double area = polygonArea(out.boundary, f);
   // Holes: gaps inside lines, chained across lines while they overlap in beam index.
   struct Gap {
     int line, first, last;

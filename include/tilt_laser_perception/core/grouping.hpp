@@ -63,6 +63,10 @@ struct GroupingParams {
   /// lies within `significance` of these sigmas of it.
   double line_sigma = 0.0;
   double significance = 3.0;  ///< [sigmas]
+  /// The sweep's last line lies beside its first (a spinning head's half or
+  /// whole turn ends in the plane it began in): planes that meet across that
+  /// seam merge as planes that meet anywhere else.
+  bool cyclic_lines = false;
   std::string validate() const;
   /// How far a segment's points may lie from its plane [m].
   double threshold(double range) const {
@@ -184,6 +188,9 @@ class ScanLineGrouper {
   /// Whether a member of `a` comes within `limit` of a member of `b` on a
   /// line within max_line_gap + 1 of its own (both segment indices, increasing).
   bool touch(const std::vector<int>& a, const std::vector<int>& b, double limit) const;
+  /// cyclic_lines: whether a member of `a` in the sweep's first lines and one
+  /// of `b` in its last come within `limit` of each other (or the converse).
+  bool touchAcrossSeam(const std::vector<int>& a, const std::vector<int>& b, double limit) const;
   /// The index of the first segment on `line` or after it.
   int firstSegmentOf(int line) const;
   /// line_start_ and spans_ again from segs_ (after segments were cut).
