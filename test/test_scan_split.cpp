@@ -508,3 +508,38 @@ TEST(TiltProfile, StepAndHoldStopsAtEveryStep) {
   p.max_angle = -1.0;
   EXPECT_NE(p.validate(), "");
 }
+
+TEST(TiltProfile, SpinKeepsTheGoalATurnAheadAndEndsASweepEveryHalfTurn) {
+  // A servo turning at 2 rad/s from 0.1 rad (unwrapped): the goal always
+  // more than half a turn ahead (it never slows for it), at the spin rate;
+  // a sweep from each multiple of pi to the next.
+  TiltProfileParams p;
+  p.mode = TiltProfileParams::Mode::Spin;
+  p.speed = 2.0;
+  ASSERT_EQ(p.validate(), "");
+  TiltProfile prof(p);
+  TiltCommand cmd;
+  Sweep sweep;
+  bool ended = false;
+  std::vector<Sweep> sweeps;
+  int commands = 0;
+  for (double t = 0.0; t < 5.0; t += 0.001) {
+    const double pos = 0.1 + 2.0 * t;
+    if (prof.update(t, pos, cmd, sweep, &ended)) {
+      ++commands;
+      EXPECT_DOUBLE_EQ(cmd.velocity, 2.0);
+    }
+    EXPECT_GT(prof.goal() - pos, M_PI - 0.01) << t;
+    if (ended) sweeps.push_back(sweep);
+  }
+  // pi at 1.52 s, 2 pi at 3.09 s, 3 pi at 4.66 s: two sweeps; a goal a turn
+  // ahead each half turn or so (10 rad in 5 s: 3 or 4 of them).
+  ASSERT_EQ(sweeps.size(), 2u);
+  EXPECT_NEAR(sweeps[0].start_angle, M_PI, 1e-9);
+  EXPECT_NEAR(sweeps[0].end_angle, 2.0 * M_PI, 1e-9);
+  EXPECT_NEAR(sweeps[1].end_time, (3.0 * M_PI - 0.1) / 2.0, 0.002);
+  EXPECT_GE(commands, 3);
+  EXPECT_LE(commands, 5);
+  p.spin_span = 0.0;
+  EXPECT_NE(p.validate().find("spin_span"), std::string::npos);
+}

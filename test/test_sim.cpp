@@ -724,3 +724,39 @@ TEST(SceneEval, EachSweepShowsItsLinesPoseError) {
   EXPECT_GT(real, ideal);
   EXPECT_LT(real, 0.3);
 }
+
+TEST(SceneEval, ASpinningHeadsHalfTurnHoldsItsFloorAndWallsWhole) {
+  // evaluate --spin: the laser's scan plane contains the spin axis, so every
+  // line on the floor passes where the axis meets it, and a half turn ends in
+  // the plane it began in. The floor and the walls the seam cuts are one
+  // plane each (over-segmented: none), and the floor's area is the fan's
+  // (tens of square metres), not what its boundary's signed area leaves.
+  sim::SceneEvalOptions o;
+  o.scene = "stairs";
+  o.sweeps = 2;
+  o.profile.mode = core::TiltProfileParams::Mode::Spin;
+  o.profile.speed = 1.0;
+  o.sweep.spin_span = o.profile.spin_span;
+  double floor_area = 0.0;
+  int floors = 0;
+  o.on_sweep = [&](const core::SweepResult& sw) {
+    for (const core::Plane& p : sw.planes)
+      if (p.fit.normal.z() > 0.99 && std::abs(p.fit.centroid.z()) < 0.02 && p.points > 500) {
+        ++floors;
+        floor_area = std::max(floor_area, p.area);
+      }
+  };
+  const auto ev = sim::evaluateScene(o);
+  ASSERT_EQ(ev.size(), 2u);
+  for (const auto& e : ev) {
+    EXPECT_GT(e.lines, 110);  // a half turn at 1 rad/s and 40 lines a second: 125
+    EXPECT_GE(e.correct, e.true_faces - 1);
+    EXPECT_EQ(e.over, 0);
+    EXPECT_LE(e.noise, 1);
+  }
+  EXPECT_EQ(floors, 2);  // one floor plane a sweep
+  EXPECT_GT(floor_area, 40.0);
+  // A nodding profile with a spinning head (or the converse) is refused.
+  o.sweep.spin_span = 0.0;
+  EXPECT_THROW(sim::evaluateScene(o), std::runtime_error);
+}

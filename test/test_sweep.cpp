@@ -577,3 +577,67 @@ TEST(SweepAssembler, LinesBeforeAnyReversalAreCountedOutsideASweep) {
   EXPECT_GE(a.counters().lines_outside_sweeps, 15u);
   EXPECT_EQ(a.counters().sweeps, 0u);
 }
+
+namespace {
+/// A spinning joint: q = w t + 0.3, read as a servo reads it (within one turn,
+/// -pi..pi) or unwrapped.
+std::vector<SweepResult> runSpin(double w, bool wrapped, SweepCounters* counters = nullptr) {
+  SweepParams p = shortSweeps();
+  p.spin_span = M_PI;
+  TiltChain chain;
+  chain.axis = Eigen::Vector3d::UnitX();
+  chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
+  SweepAssembler a(p, chain);
+  std::vector<SweepResult> sweeps;
+  drive(a, [&](double t) { return wrapped ? std::remainder(w * t + 0.3, 2.0 * M_PI) : w * t + 0.3; }, 8.0, 0.0,
+        &sweeps);
+  if (counters) *counters = a.counters();
+  return sweeps;
+}
+}  // namespace
+
+TEST(SweepAssembler, ASpinningJointIsUnwrappedAndCutEveryHalfTurn) {
+  // 2 rad/s from 0.3 rad: it passes pi at 1.42 s, 2 pi at 2.99 s, 3 pi at
+  // 4.56 s, 4 pi at 6.13 s, 5 pi at 7.70 s: four sweeps (the first stretch
+  // is none).
+  // Its readings wrap from pi to -pi each turn: that is no boundary.
+  for (const bool wrapped : {true, false}) {
+    SweepCounters c;
+    const std::vector<SweepResult> sweeps = runSpin(2.0, wrapped, &c);
+    ASSERT_EQ(sweeps.size(), 4u) << "wrapped " << wrapped;
+    EXPECT_EQ(c.reversals, 5u);
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_NEAR(sweeps[k].start, ((k + 1) * M_PI - 0.3) / 2.0, 0.006);
+      EXPECT_NEAR(sweeps[k].end, ((k + 2) * M_PI - 0.3) / 2.0, 0.006);
+      // A half turn at 2 rad/s is 1.57 s: 62 or 63 lines 25 ms apart.
+      EXPECT_NEAR(static_cast<double>(sweeps[k].lines.size()), 62.8, 1.0);
+      // Every beam's joint angle unwrapped, within its sweep's half turn.
+      for (const SweepLine& l : sweeps[k].lines)
+        for (const float q : l.tilt) {
+          EXPECT_GE(q, (k + 1) * M_PI - 0.01);
+          EXPECT_LE(q, (k + 2) * M_PI + 0.01);
+        }
+    }
+    expectLinesInTheirSweeps(sweeps);
+  }
+}
+
+TEST(SweepAssembler, ASpinTheOtherWayIsCutTheSame) {
+  // -2 rad/s from 0.3: it passes 0 at 0.15 s, -pi at 1.72 s, -2 pi at 3.29 s, ...
+  const std::vector<SweepResult> sweeps = runSpin(-2.0, true);
+  ASSERT_EQ(sweeps.size(), 4u);
+  EXPECT_NEAR(sweeps[0].start, 0.15, 0.006);
+  EXPECT_NEAR(sweeps[0].end, (M_PI + 0.3) / 2.0, 0.006);
+  for (const SweepResult& s : sweeps) EXPECT_NEAR(s.end - s.start, M_PI / 2.0, 0.006);
+  expectLinesInTheirSweeps(sweeps);
+}
+
+TEST(SweepAssembler, ASpinSpanIsValidated) {
+  SweepParams p;
+  p.spin_span = -1.0;
+  EXPECT_NE(p.validate().find("spin_span"), std::string::npos);
+  p.spin_span = 7.0;
+  EXPECT_NE(p.validate().find("spin_span"), std::string::npos);
+  p.spin_span = M_PI;
+  EXPECT_EQ(p.validate(), "");
+}
