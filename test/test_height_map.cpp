@@ -141,3 +141,61 @@ TEST(HeightMap, AGridBuiltAgainEqualsAFreshOne) {
   EXPECT_EQ(reused.box_x0, fresh.box_x0);
   EXPECT_EQ(reused.box_y1, fresh.box_y1);
 }
+
+TEST(HeightMap, APlaneFillsOnlyBetweenItsLinesNotAcrossWhatTheyDidNotSee) {
+  // A spinning head's lines on the floor all pass where its axis meets it,
+  // here (1, 0), hidden (a box stands there): each line is two segments,
+  // 0.3 to 1 m either side of it. A half turn of 19 lines 10 degrees apart.
+  // The floor between neighbouring lines is known on both sides; within
+  // 0.2 m of the hidden point, which no line saw, nothing is (its outline
+  // would have claimed it); a cell between two lines' chords is known
+  // whichever way they cross.
+  SweepResult s;
+  Plane floor;
+  floor.id = 0;
+  floor.fit.normal = Eigen::Vector3d::UnitZ();
+  floor.fit.centroid = Eigen::Vector3d(1, 0, 0);
+  floor.area = 3.0;
+  const Eigen::Vector3d hub(1.0, 0.0, 0.0);
+  for (int k = 0; k < 19; ++k) {
+    const double a = k * 10.0 * M_PI / 180.0;
+    const Eigen::Vector3d d(std::cos(a), std::sin(a), 0.0);
+    SweepLine line;
+    for (int i = 0; i <= 100; ++i) line.points.push_back((hub + (-1.0 + 0.02 * i) * d).cast<float>());
+    s.lines.push_back(line);
+    for (const auto& [first, last] : {std::pair<int, int>{0, 35}, {65, 100}}) {
+      Segment3 seg;
+      seg.line = k;
+      seg.first = first;
+      seg.last = last;
+      seg.start = hub + (-1.0 + 0.02 * first) * d;
+      seg.end = hub + (-1.0 + 0.02 * last) * d;
+      floor.members.push_back(static_cast<int>(s.segments.size()));
+      s.segments.push_back(seg);
+      s.segment_plane.push_back(0);
+    }
+  }
+  s.planes = {floor};
+  HeightMapParams p;
+  p.origin_x = -0.5;
+  p.origin_y = -1.5;
+  p.width = 300;
+  p.height = 300;
+  HeightMapGrid g;
+  buildHeightMap(s, p, g);
+  const auto at = [&](double x, double y) {
+    return g.index(static_cast<int>((x - p.origin_x) / 0.01), static_cast<int>((y - p.origin_y) / 0.01));
+  };
+  int known = 0, ring = 0, inner = 0, inner_known = 0;
+  for (int deg = 0; deg < 360; deg += 3) {
+    const double a = deg * M_PI / 180.0;
+    ++ring;
+    known += std::isfinite(g.heights[at(1.0 + 0.6 * std::cos(a), 0.6 * std::sin(a))]);
+    ++inner;
+    inner_known += std::isfinite(g.heights[at(1.0 + 0.15 * std::cos(a), 0.15 * std::sin(a))]);
+  }
+  EXPECT_EQ(known, ring);  // all around, between every two lines
+  EXPECT_EQ(inner_known, 0) << "of " << inner;
+  EXPECT_NEAR(g.heights[at(1.6, 0.03)], 0.0, 1e-6);
+  EXPECT_EQ(g.classes[at(1.6, 0.03)], CellClass::Floor);
+}

@@ -1285,24 +1285,24 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   }
 }
 
+Eigen::Vector3d cornerOnPlane(const Eigen::Vector3d& x, const Eigen::Vector3d& o, const PlaneFit& f,
+                              const GroupingParams& p) {
+  const double dist = f.normal.dot(x) - f.offset;
+  const Eigen::Vector3d ray = x - o;
+  const double along = f.normal.dot(ray);
+  if (std::isfinite(along) && std::abs(along) >= kMinRayIncidence * ray.norm()) {
+    const double t = dist / along;  // x - t ray is on the plane
+    // No farther along the ray than range noise and a mixed pixel reach
+    // (on a plane seen at a grazing angle, or a wrong one, it would fly off).
+    const double r = ray.norm();
+    if (std::abs(t) * r <= 2.0 * p.threshold(r)) return Eigen::Vector3d(x - t * ray);
+  }
+  return Eigen::Vector3d(x - dist * f.normal);
+}
+
 void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
   const PlaneFit& f = out.fit;
-  // A corner on the plane: where the point's ray meets it (range noise and a
-  // mixed pixel move a point along its ray only), or straight down onto the
-  // plane where the ray is unknown or grazes it.
-  const auto onPlane = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& o) {
-    const double dist = f.normal.dot(x) - f.offset;
-    const Eigen::Vector3d ray = x - o;
-    const double along = f.normal.dot(ray);
-    if (std::isfinite(along) && std::abs(along) >= kMinRayIncidence * ray.norm()) {
-      const double t = dist / along;  // x - t ray is on the plane
-      // No farther along the ray than range noise and a mixed pixel reach
-      // (on a plane seen at a grazing angle, or a wrong one, it would fly off).
-      const double r = ray.norm();
-      if (std::abs(t) * r <= 2.0 * p_.threshold(r)) return Eigen::Vector3d(x - t * ray);
-    }
-    return Eigen::Vector3d(x - dist * f.normal);
-  };
+  const auto onPlane = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& o) { return cornerOnPlane(x, o, f, p_); };
   // Members are segment indices in increasing order: line by line, each
   // line's in beam order; lineEnd(k) is where the line of members[k] ends.
   const std::vector<int>& mem = r.members;

@@ -84,7 +84,41 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   }
 
   const float floor_h = static_cast<float>(out.floor_height), floor_tol = static_cast<float>(p.floor_tolerance);
-  // Fill each walkable plane's polygon (holes by the even-odd rule) row by row.
+  // A run of a row's cells on a walkable plane: seen from above, the higher
+  // surface wins.
+  const auto fillRow = [&](const Plane& pl, int iy, double xa, double xb) {
+    const Eigen::Vector3d& n = pl.fit.normal;
+    const double y = p.origin_y + (iy + 0.5) * p.resolution;
+    const int ix0 = std::max(0, static_cast<int>(std::ceil((xa - p.origin_x) / p.resolution - 0.5)));
+    const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xb - p.origin_x) / p.resolution - 0.5)));
+    const int count = ix1 - ix0 + 1;
+    if (count <= 0) return;
+    inBox(ix0, ix1, iy);
+    // z along the row: a ramp from the first cell's height
+    const double inv_nz = 1.0 / n.z();
+    const float dz = static_cast<float>(-n.x() * p.resolution * inv_nz);
+    const float z0 = static_cast<float>((pl.fit.offset - n.x() * (p.origin_x + (ix0 + 0.5) * p.resolution) - n.y() * y) * inv_nz);
+    const std::size_t c0 = out.index(ix0, iy);
+    float* __restrict h = out.heights.data() + c0;
+    std::int32_t* __restrict id = out.plane_ids.data() + c0;
+    CellClass* __restrict cls = out.classes.data() + c0;
+    // Without branches (masks): a vector at a time.
+#pragma omp simd
+    for (int k = 0; k < count; ++k) {
+      const float z = z0 + static_cast<float>(k) * dz;
+      const float old = h[k];
+      // All ones where z is higher: seen from above, the higher surface wins (NaN: none yet).
+      const std::int32_t higher = -static_cast<std::int32_t>(!(old >= z));
+      // NaN while the floor is unknown: a step
+      const std::int32_t c = static_cast<std::int32_t>(CellClass::Step) -
+                             static_cast<std::int32_t>(std::abs(z - floor_h) <= floor_tol);
+      h[k] = old >= z ? old : z;
+      id[k] = (pl.id & higher) | (id[k] & ~higher);
+      cls[k] = static_cast<CellClass>((c & higher) | (static_cast<std::int32_t>(cls[k]) & ~higher));
+    }
+  };
+  // Polygons (x, y) filled by the even-odd rule, row by row: each edge listed
+  // under the rows whose centre line it crosses (the half-open rule).
   struct Edge {
     double ax, ay, bx, by;
     int lo, hi;  // rows it crosses
@@ -92,35 +126,30 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   std::vector<Edge> edges;
   std::vector<int> row_count, row_fill, row_edges;
   std::vector<double> xs;
-  for (const Plane& pl : sweep.planes) {
-    if (!walkable[pl.id]) continue;
-    std::vector<const std::vector<Eigen::Vector3d>*> rings{&pl.boundary};
-    for (const auto& h : pl.holes) rings.push_back(&h);
+  const auto fillRings = [&](const Plane& pl, const std::vector<std::vector<Eigen::Vector2d>>& polys) {
     double ymin = 1e300, ymax = -1e300;
-    for (const Eigen::Vector3d& v : pl.boundary) {
-      ymin = std::min(ymin, v.y());
-      ymax = std::max(ymax, v.y());
-    }
+    for (const auto& ring : polys)
+      for (const Eigen::Vector2d& v : ring) {
+        ymin = std::min(ymin, v.y());
+        ymax = std::max(ymax, v.y());
+      }
     const int iy0 = std::max(0, static_cast<int>(std::floor((ymin - p.origin_y) / p.resolution)));
     const int iy1 = std::min(p.height - 1, static_cast<int>(std::floor((ymax - p.origin_y) / p.resolution)));
-    if (iy1 < iy0) continue;
-    const Eigen::Vector3d& n = pl.fit.normal;
-    // Edge table: each edge listed under the rows whose centre line it crosses.
+    if (iy1 < iy0) return;
     const auto rowOf = [&](double y) { return (y - p.origin_y) / p.resolution - 0.5; };
     row_count.assign(iy1 - iy0 + 2, 0);
     edges.clear();
-    for (const auto* ring : rings) {
-      const std::size_t m = ring->size();
+    for (const auto& ring : polys) {
+      const std::size_t m = ring.size();
       for (std::size_t i = 0; i < m; ++i) {
-        const Eigen::Vector3d& a = (*ring)[i];
-        const Eigen::Vector3d& b = (*ring)[(i + 1) % m];
-        if (a.y() == b.y()) continue;
-        const double ra = rowOf(a.y()), rb = rowOf(b.y());
-        // rows iy with centre in [min, max): the half-open rule of the crossing test
-        const int lo = std::max(iy0, static_cast<int>(std::ceil(std::min(ra, rb))));
-        const int hi = std::min(iy1, static_cast<int>(std::ceil(std::max(ra, rb))) - 1);
+        const Eigen::Vector2d& u = ring[i];
+        const Eigen::Vector2d& w = ring[(i + 1) % m];
+        if (u.y() == w.y()) continue;
+        const double ru = rowOf(u.y()), rw = rowOf(w.y());
+        const int lo = std::max(iy0, static_cast<int>(std::ceil(std::min(ru, rw))));
+        const int hi = std::min(iy1, static_cast<int>(std::ceil(std::max(ru, rw))) - 1);
         if (hi < lo) continue;
-        edges.push_back({a.x(), a.y(), b.x(), b.y(), lo, hi});
+        edges.push_back({u.x(), u.y(), w.x(), w.y(), lo, hi});
         for (int r = lo; r <= hi; ++r) ++row_count[r - iy0 + 1];
       }
     }
@@ -129,7 +158,6 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     row_fill.assign(row_count.begin(), row_count.end());
     for (std::size_t e = 0; e < edges.size(); ++e)
       for (int r = edges[e].lo; r <= edges[e].hi; ++r) row_edges[row_fill[r - iy0]++] = static_cast<int>(e);
-    const double inv_nz = 1.0 / n.z();
     for (int iy = iy0; iy <= iy1; ++iy) {
       const double y = p.origin_y + (iy + 0.5) * p.resolution;
       xs.clear();
@@ -138,34 +166,158 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         xs.push_back(e.ax + (y - e.ay) / (e.by - e.ay) * (e.bx - e.ax));
       }
       std::sort(xs.begin(), xs.end());
-      for (std::size_t k = 0; k + 1 < xs.size(); k += 2) {
-        const int ix0 = std::max(0, static_cast<int>(std::ceil((xs[k] - p.origin_x) / p.resolution - 0.5)));
-        const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xs[k + 1] - p.origin_x) / p.resolution - 0.5)));
-        // z along the row: a ramp from the first cell's height
-        const float dz = static_cast<float>(-n.x() * p.resolution * inv_nz);
-        const float z0 = static_cast<float>((pl.fit.offset - n.x() * (p.origin_x + (ix0 + 0.5) * p.resolution) - n.y() * y) * inv_nz);
-        const std::size_t c0 = out.index(ix0, iy);
-        const int count = ix1 - ix0 + 1;
-        if (count > 0) inBox(ix0, ix1, iy);
-        float* __restrict h = out.heights.data() + c0;
-        std::int32_t* __restrict id = out.plane_ids.data() + c0;
-        CellClass* __restrict cls = out.classes.data() + c0;
-        // Without branches (masks): a vector at a time.
-#pragma omp simd
-        for (int k = 0; k < count; ++k) {
-          const float z = z0 + static_cast<float>(k) * dz;
-          const float old = h[k];
-          // All ones where z is higher: seen from above, the higher surface wins (NaN: none yet).
-          const std::int32_t higher = -static_cast<std::int32_t>(!(old >= z));
-          // NaN while the floor is unknown: a step
-          const std::int32_t c = static_cast<std::int32_t>(CellClass::Step) -
-                                 static_cast<std::int32_t>(std::abs(z - floor_h) <= floor_tol);
-          h[k] = old >= z ? old : z;
-          id[k] = (pl.id & higher) | (id[k] & ~higher);
-          cls[k] = static_cast<CellClass>((c & higher) | (static_cast<std::int32_t>(cls[k]) & ~higher));
-        }
+      for (std::size_t k = 0; k + 1 < xs.size(); k += 2) fillRow(pl, iy, xs[k], xs[k + 1]);
+    }
+  };
+  const auto cross2 = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); };
+  // Where chord a0-b0 crosses chord a1-b1 within both (false when not).
+  const auto crossing = [&](const Eigen::Vector2d& a0, const Eigen::Vector2d& b0, const Eigen::Vector2d& a1,
+                            const Eigen::Vector2d& b1, Eigen::Vector2d& x) {
+    const Eigen::Vector2d d0 = b0 - a0, d1 = b1 - a1;
+    const double den = cross2(d0, d1);
+    if (den == 0.0) return false;
+    const double u = cross2(a1 - a0, d1) / den, w = cross2(a1 - a0, d0) / den;
+    x = a0 + u * d0;
+    return u > 0.0 && u < 1.0 && w > 0.0 && w < 1.0;
+  };
+  std::vector<std::vector<Eigen::Vector2d>> rings;
+  // A chain: one segment on each of successive lines, each side by side with
+  // the next and with nothing else there: their ends, there and back, bound
+  // one polygon.
+  struct Chain {
+    std::vector<Eigen::Vector2d> from, to;
+  };
+  std::vector<Chain> chains;
+  std::vector<int> chain_of, next_chain_of, partners_s, partners_t;
+  struct Piece {
+    int line;
+    std::size_t first, last;  // its segments (in the plane's sorted members)
+    int beam_first, beam_last;
+  };
+  std::vector<Piece> pieces;
+  const auto flushChain = [&](const Plane& pl, Chain& ch) {
+    if (ch.from.size() >= 2) {
+      rings.assign(1, ch.from);
+      rings[0].insert(rings[0].end(), ch.to.rbegin(), ch.to.rend());
+      fillRings(pl, rings);
+    }
+    ch.from.clear();
+    ch.to.clear();
+  };
+  std::vector<int> mem;
+  for (const Plane& pl : sweep.planes) {
+    if (!walkable[pl.id]) continue;
+    if (pl.members.empty()) {  // a plane given by its outline alone (not from a sweep's lines)
+      rings.clear();
+      for (const auto* ring : {&pl.boundary}) {
+        rings.emplace_back();
+        for (const Eigen::Vector3d& v : *ring) rings.back().emplace_back(v.x(), v.y());
+      }
+      for (const auto& h : pl.holes) {
+        rings.emplace_back();
+        for (const Eigen::Vector3d& v : h) rings.back().emplace_back(v.x(), v.y());
+      }
+      fillRings(pl, rings);
+      continue;
+    }
+    // Between its scan lines: the strip between two of its segments on
+    // neighbouring lines of it that overlap in beam index. Where its lines
+    // saw something else (a gap in a line: the plane goes on beyond an
+    // obstacle, or is seen again beyond a shadow) no strip is drawn, so a
+    // cell no line saw on the plane stays unknown rather than be filled
+    // from the plane's outline. Chains of segments are filled as one polygon
+    // each; where a segment meets two on the next line (or chords cross),
+    // strip by strip.
+    mem = pl.members;
+    std::sort(mem.begin(), mem.end());  // segments come line by line, in beam order
+    const auto onPlane = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& origin) {
+      const Eigen::Vector3d q = cornerOnPlane(x, origin, pl.fit, GroupingParams());
+      return Eigen::Vector2d(q.x(), q.y());
+    };
+    // Pieces: a line's segments of the plane that follow each other with at
+    // most an edge point between them (the split cut a run of the surface).
+    pieces.clear();
+    for (std::size_t k = 0; k < mem.size(); ++k) {
+      const Segment3& s = sweep.segments[mem[k]];
+      if (!pieces.empty() && pieces.back().line == s.line && s.first <= pieces.back().beam_last + 2) {
+        pieces.back().last = k;
+        pieces.back().beam_last = s.last;
+      } else {
+        pieces.push_back({s.line, k, k, s.first, s.last});
       }
     }
+    // The plane's outline has a corner where each of its lines enters it and
+    // one where it leaves (lines in order, then back), put where the ray
+    // meets the plane and carried to the creases it meets: a line's outer
+    // ends are those; the ends inside a line (its gaps) are the segments'.
+    std::size_t lines = 0;
+    for (std::size_t k = 0; k < pieces.size(); ++k) lines += k == 0 || pieces[k].line != pieces[k - 1].line;
+    const bool corners = pl.boundary.size() == 2 * lines;
+    // Piece k of the line-th line, whose pieces are [first, last).
+    const auto ends = [&](std::size_t k, std::size_t first, std::size_t last, std::size_t l, Eigen::Vector2d& from,
+                          Eigen::Vector2d& to) {
+      const Segment3& s = sweep.segments[mem[pieces[k].first]];
+      const Segment3& e = sweep.segments[mem[pieces[k].last]];
+      // (The outline's corners lie on the plane: their rays change nothing.)
+      from = onPlane(corners && k == first ? pl.boundary[l] : s.start, s.origin);
+      to = onPlane(corners && k + 1 == last ? pl.boundary[2 * lines - 1 - l] : e.end, e.origin);
+    };
+    // [a, b) and [b, c): the pieces of two successive lines of the plane
+    // (its line-th and the next).
+    std::size_t a = 0, line = 0;
+    Eigen::Vector2d a0, b0, a1, b1, x;
+    chains.clear();
+    chain_of.clear();
+    while (a < pieces.size()) {
+      std::size_t b = a;
+      while (b < pieces.size() && pieces[b].line == pieces[a].line) ++b;
+      std::size_t c = b;
+      while (c < pieces.size() && pieces[c].line == pieces[b].line) ++c;
+      chain_of.resize(b - a, -1);
+      next_chain_of.assign(c - b, -1);
+      partners_s.assign(b - a, 0);
+      partners_t.assign(c - b, 0);
+      const auto side = [&](std::size_t i, std::size_t j) {
+        return !(pieces[i].beam_first > pieces[j].beam_last || pieces[j].beam_first > pieces[i].beam_last);
+      };
+      for (std::size_t i = a; i < b; ++i)
+        for (std::size_t j = b; j < c; ++j)
+          if (side(i, j)) {
+            ++partners_s[i - a];
+            ++partners_t[j - b];
+          }
+      for (std::size_t i = a; i < b; ++i)
+        for (std::size_t j = b; j < c; ++j) {
+          if (!side(i, j)) continue;
+          ends(i, a, b, line, a0, b0);
+          ends(j, b, c, line + 1, a1, b1);
+          const bool crossed = crossing(a0, b0, a1, b1, x);
+          if (partners_s[i - a] == 1 && partners_t[j - b] == 1 && !crossed) {
+            int& ch = chain_of[i - a];
+            if (ch < 0) {
+              ch = static_cast<int>(chains.size());
+              chains.push_back({{a0}, {b0}});
+            }
+            chains[ch].from.push_back(a1);
+            chains[ch].to.push_back(b1);
+            next_chain_of[j - b] = ch;
+            ch = -1;
+            continue;
+          }
+          // Two chords that cross (a spinning head's lines, where its axis
+          // meets the plane): two triangles from the crossing.
+          if (crossed) rings = {{a0, x, a1}, {x, b0, b1}};
+          else rings = {{a0, b0, b1, a1}};
+          for (const auto& r : rings) fillRings(pl, {r});
+        }
+      for (const int ch : chain_of)  // chains that end on this line
+        if (ch >= 0) flushChain(pl, chains[ch]);
+      chain_of.swap(next_chain_of);
+      a = b;
+      ++line;
+    }
+    for (const int ch : chain_of)
+      if (ch >= 0) flushChain(pl, chains[ch]);
   }
 
   // Obstacles: points outside walkable planes that stand above the cell's

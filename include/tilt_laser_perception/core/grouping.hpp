@@ -90,6 +90,14 @@ struct Plane {
   std::vector<std::vector<Eigen::Vector3d>> holes;     ///< hole polygons, on the plane
 };
 
+/// A segment's end point as a corner on its plane: where the point's ray from
+/// `origin` meets the plane (range noise and a mixed pixel move a point
+/// along its ray only, no farther than twice the grouping's distance
+/// threshold), or straight onto the plane where the ray is unknown (NaN
+/// origin) or grazes it.
+Eigen::Vector3d cornerOnPlane(const Eigen::Vector3d& x, const Eigen::Vector3d& origin, const PlaneFit& f,
+                              const GroupingParams& params);
+
 /// Two planes that meet are bounded by their common line: a polygon ends at
 /// its last scan line, the surface at the crease, which lies between that
 /// line and the other plane's first (the 2-5 cm of a tread next to its riser
