@@ -86,17 +86,18 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   const float floor_h = static_cast<float>(out.floor_height), floor_tol = static_cast<float>(p.floor_tolerance);
   // A run of a row's cells on a walkable plane: seen from above, the higher
   // surface wins.
+  const double inv_res = 1.0 / p.resolution;
+  double inv_nz = 0.0;  // of the plane being filled
+  float dz = 0.0f;      // its height's step from a cell to the next along a row
   const auto fillRow = [&](const Plane& pl, int iy, double xa, double xb) {
-    const Eigen::Vector3d& n = pl.fit.normal;
-    const double y = p.origin_y + (iy + 0.5) * p.resolution;
-    const int ix0 = std::max(0, static_cast<int>(std::ceil((xa - p.origin_x) / p.resolution - 0.5)));
-    const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xb - p.origin_x) / p.resolution - 0.5)));
+    const int ix0 = std::max(0, static_cast<int>(std::ceil((xa - p.origin_x) * inv_res - 0.5)));
+    const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xb - p.origin_x) * inv_res - 0.5)));
     const int count = ix1 - ix0 + 1;
     if (count <= 0) return;
     inBox(ix0, ix1, iy);
     // z along the row: a ramp from the first cell's height
-    const double inv_nz = 1.0 / n.z();
-    const float dz = static_cast<float>(-n.x() * p.resolution * inv_nz);
+    const Eigen::Vector3d& n = pl.fit.normal;
+    const double y = p.origin_y + (iy + 0.5) * p.resolution;
     const float z0 = static_cast<float>((pl.fit.offset - n.x() * (p.origin_x + (ix0 + 0.5) * p.resolution) - n.y() * y) * inv_nz);
     const std::size_t c0 = out.index(ix0, iy);
     float* __restrict h = out.heights.data() + c0;
@@ -136,7 +137,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     const int iy0 = std::max(0, static_cast<int>(std::floor((ymin - p.origin_y) / p.resolution)));
     const int iy1 = std::min(p.height - 1, static_cast<int>(std::floor((ymax - p.origin_y) / p.resolution)));
     if (iy1 < iy0) return;
-    const auto rowOf = [&](double y) { return (y - p.origin_y) / p.resolution - 0.5; };
+    const auto rowOf = [&](double y) { return (y - p.origin_y) * inv_res - 0.5; };
     row_count.assign(iy1 - iy0 + 2, 0);
     edges.clear();
     for (const auto& ring : polys) {
@@ -193,6 +194,8 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     int line;
     std::size_t first, last;  // its segments (in the plane's sorted members)
     int beam_first, beam_last;
+    Eigen::Vector2d from = Eigen::Vector2d::Zero(), to = Eigen::Vector2d::Zero();  // its ends on the plane
+    bool beside = false;                                                          // beside the map
   };
   std::vector<Piece> pieces;
   const auto flushChain = [&](const Plane& pl, Chain& ch) {
@@ -207,6 +210,8 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   std::vector<int> mem;
   for (const Plane& pl : sweep.planes) {
     if (!walkable[pl.id]) continue;
+    inv_nz = 1.0 / pl.fit.normal.z();
+    dz = static_cast<float>(-pl.fit.normal.x() * p.resolution * inv_nz);
     if (pl.members.empty()) {  // a plane given by its outline alone (not from a sweep's lines)
       rings.clear();
       for (const auto* ring : {&pl.boundary}) {
@@ -243,7 +248,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         pieces.back().last = k;
         pieces.back().beam_last = s.last;
       } else {
-        pieces.push_back({s.line, k, k, s.first, s.last});
+        pieces.push_back({s.line, k, k, s.first, s.last, {}, {}, false});
       }
     }
     // The plane's outline has a corner where each of its lines enters it and
@@ -253,19 +258,23 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     std::size_t lines = 0;
     for (std::size_t k = 0; k < pieces.size(); ++k) lines += k == 0 || pieces[k].line != pieces[k - 1].line;
     const bool corners = pl.boundary.size() == 2 * lines;
-    // Piece k of the line-th line, whose pieces are [first, last).
-    const auto ends = [&](std::size_t k, std::size_t first, std::size_t last, std::size_t l, Eigen::Vector2d& from,
-                          Eigen::Vector2d& to) {
-      const Segment3& s = sweep.segments[mem[pieces[k].first]];
-      const Segment3& e = sweep.segments[mem[pieces[k].last]];
+    // Each piece's ends on the plane (x, y), and whether it lies beside the map.
+    std::size_t line = 0;
+    for (std::size_t k = 0; k < pieces.size(); ++k) {
+      Piece& pc = pieces[k];
+      if (k > 0 && pc.line != pieces[k - 1].line) ++line;
+      const bool first = k == 0 || pc.line != pieces[k - 1].line;
+      const bool last = k + 1 == pieces.size() || pc.line != pieces[k + 1].line;
+      const Segment3& s = sweep.segments[mem[pc.first]];
+      const Segment3& e = sweep.segments[mem[pc.last]];
       // (The outline's corners lie on the plane: their rays change nothing.)
-      from = onPlane(corners && k == first ? pl.boundary[l] : s.start, s.origin);
-      to = onPlane(corners && k + 1 == last ? pl.boundary[2 * lines - 1 - l] : e.end, e.origin);
-    };
-    // [a, b) and [b, c): the pieces of two successive lines of the plane
-    // (its line-th and the next).
-    std::size_t a = 0, line = 0;
-    Eigen::Vector2d a0, b0, a1, b1, x;
+      pc.from = onPlane(corners && first ? pl.boundary[line] : s.start, s.origin);
+      pc.to = onPlane(corners && last ? pl.boundary[2 * lines - 1 - line] : e.end, e.origin);
+      pc.beside = besideMap(s, p) && besideMap(e, p);
+    }
+    // [a, b) and [b, c): the pieces of two successive lines of the plane.
+    std::size_t a = 0;
+    Eigen::Vector2d x;
     chains.clear();
     chain_of.clear();
     while (a < pieces.size()) {
@@ -278,7 +287,8 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       partners_s.assign(b - a, 0);
       partners_t.assign(c - b, 0);
       const auto side = [&](std::size_t i, std::size_t j) {
-        return !(pieces[i].beam_first > pieces[j].beam_last || pieces[j].beam_first > pieces[i].beam_last);
+        return !(pieces[i].beam_first > pieces[j].beam_last || pieces[j].beam_first > pieces[i].beam_last) &&
+               !(pieces[i].beside && pieces[j].beside);
       };
       for (std::size_t i = a; i < b; ++i)
         for (std::size_t j = b; j < c; ++j)
@@ -289,8 +299,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       for (std::size_t i = a; i < b; ++i)
         for (std::size_t j = b; j < c; ++j) {
           if (!side(i, j)) continue;
-          ends(i, a, b, line, a0, b0);
-          ends(j, b, c, line + 1, a1, b1);
+          const Eigen::Vector2d &a0 = pieces[i].from, &b0 = pieces[i].to, &a1 = pieces[j].from, &b1 = pieces[j].to;
           const bool crossed = crossing(a0, b0, a1, b1, x);
           if (partners_s[i - a] == 1 && partners_t[j - b] == 1 && !crossed) {
             int& ch = chain_of[i - a];
@@ -314,7 +323,6 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         if (ch >= 0) flushChain(pl, chains[ch]);
       chain_of.swap(next_chain_of);
       a = b;
-      ++line;
     }
     for (const int ch : chain_of)
       if (ch >= 0) flushChain(pl, chains[ch]);
@@ -327,7 +335,6 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
               x_hi = static_cast<float>(p.origin_x + p.width * p.resolution + kMapMargin);
   const float y_lo = static_cast<float>(p.origin_y - kMapMargin),
               y_hi = static_cast<float>(p.origin_y + p.height * p.resolution + kMapMargin);
-  const double inv_res = 1.0 / p.resolution;
   // Most points are outside the map (walls, the far floor) or no return at
   // all (NaN fails these tests too): tested inline before mark() is called.
   const auto inMap = [&](const Eigen::Vector3f& point) {
