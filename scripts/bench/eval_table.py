@@ -40,6 +40,8 @@ def summarize(evaluate, seeds, args):
         "missed": mean("missed"), "noise": mean("noise"), "under": mean("under"),
         "normal_err_deg": mean("normal_err_deg"),  # as evaluate's summary line: the sweeps' means
         "rmse_cm": 100 * mean("heightmap_rmse_m"), "fused_rmse_cm": 100 * mean("fused_rmse_m"),
+        "walkable_cm": 100 * mean("walkable_rmse_m"), "fused_walkable_cm": 100 * mean("fused_walkable_rmse_m"),
+        "invented_pct": 100 * mean("invented"),
         "front": front("front_coverage"), "fused_front": front("fused_front_coverage"),
         "front_observable": front("front_observable"),
         "veil": mean("veil_segments"), "overhanging": mean("overhanging_segments"),

@@ -68,7 +68,8 @@ class Report:
                 rows.append([name, "realistic" if rig else "ideal",
                              f"{f['correct']:.0f} / {f['true_faces']:.0f} ({100 * f['correct'] / max(f['true_faces'], 1):.1f} %)",
                              f"{f['noise']:.2f}", f"{f['missed']:.2f}", f"{f['normal_err_deg']:.2f}",
-                             f"{f['rmse_cm']:.2f}", f"{f['latency_ms']:.2f}", f"{r['correct']:.0f}, noise {r['noise']:.2f}"])
+                             f"{f['rmse_cm']:.2f}", f"{f['walkable_cm']:.2f}", f"{f['invented_pct']:.2f}",
+                             f"{f['latency_ms']:.2f}", f"{r['correct']:.0f}, noise {r['noise']:.2f}"])
         s = ",".join(map(str, seeds))
         self.section(
             "Planes and height map on the simulator's scenes",
@@ -77,11 +78,13 @@ class Report:
             "10-60 degrees; `realistic`: a real rig's errors (encoder steps, backlash, timing, mount, beam footprint; "
             "doc/simulator.md). Correct faces by Hoover et al.'s criteria at 80 % overlap, summed over the sweeps; "
             "noise and missed: planes a sweep; normal error of the correct faces; the sweep's height map against the "
-            "truth; latency: from the sweep's last line to its planes and map (median sweep); lines reversed: "
+            "truth, over all its cells and over those of walkable surfaces away from their edges (the true heights "
+            "5 cm away along x and y within the walkable slope of 15 degrees); invented: the share of the map's known "
+            "cells whose true surface the sensor could not see (a ray cast to it); latency: from the sweep's last line to its planes and map (median sweep); lines reversed: "
             "the same sweeps with each sweep's lines grouped last first (`--reverse`: the result should not depend "
             "on the order).\n\n" +
             table(["scene", "rig", "correct faces", "noise", "missed", "normal error [deg]", "height map RMSE [cm]",
-                   "latency [ms]", "lines reversed: correct"], rows))
+                   "walkable RMSE [cm]", "invented [%]", "latency [ms]", "lines reversed: correct"], rows))
         st, sr = self.scene_figures[("stairs", False)], self.scene_figures[("stairs", True)]
         self.summary["stairs"] = (f"{100 * st['correct'] / st['true_faces']:.0f} % of the faces, "
                                   f"height map {st['rmse_cm']:.1f} cm RMSE "
@@ -103,7 +106,8 @@ class Report:
             for label, f in (("nodding 10-60 deg at 1 rad/s", nod), ("spinning at 1 rad/s, a half turn", spin)):
                 rows.append([name, label,
                              f"{f['correct']:.0f} / {f['true_faces']:.0f} ({100 * f['correct'] / max(f['true_faces'], 1):.1f} %)",
-                             f"{f['noise']:.2f}", f"{f['rmse_cm']:.2f}", f"{f['front']:.0f}", f"{f['latency_ms']:.2f}"])
+                             f"{f['noise']:.2f}", f"{f['rmse_cm']:.2f}", f"{f['walkable_cm']:.2f}", f"{f['front']:.0f}",
+                             f"{f['latency_ms']:.2f}"])
             if name == "stairs":
                 self.summary["spin"] = (f"stairs: {100 * spin['correct'] / max(spin['true_faces'], 1):.0f} % of the "
                                         f"faces it sees (nodding {100 * nod['correct'] / max(nod['true_faces'], 1):.0f} %), "
@@ -117,8 +121,8 @@ class Report:
                      "containing it, a sweep each half turn: 125 lines). They see different faces (the spinning head "
                      "sees all around and the ground at its feet), so each row's correct faces are of the faces it "
                      "sees. Front: the 1 m x 1 m before the feet known in the sweep's map.\n\n" +
-                     table(["scene", "head", "correct faces", "noise", "height map RMSE [cm]", "front known [%]",
-                            "latency [ms]"], rows))
+                     table(["scene", "head", "correct faces", "noise", "height map RMSE [cm]", "walkable RMSE [cm]",
+                            "front known [%]", "latency [ms]"], rows))
 
     def walking(self):
         seeds = [1] if self.quick else [1, 2, 3]

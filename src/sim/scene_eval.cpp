@@ -82,6 +82,8 @@ class TruthHeights {
 
 struct MapScore {
   double rmse = 0.0, coverage = 0.0, front = 0.0, front_observable = 0.0;
+  double walkable_rmse = 0.0;  ///< over the cells of walkable surfaces away from their edges
+  double invented = 0.0;       ///< share of the known cells whose true surface the sensor could not see
 };
 
 /// The map cells (world indices at one resolution) that points fell in, and when.
@@ -92,14 +94,24 @@ std::uint64_t cellKey(long i, long j) {
 
 /// A map against the truth: RMSE and coverage of the cells within `radius`
 /// of the base, and coverage of the front_length x front_width in front of it.
+/// Walkable away from edges: the true heights 5 cm away along x and y (a
+/// foot's margin) all lie within the walkable slope of the cell's (no step
+/// edge, wall or drop within 5 cm, no slope steeper than max_slope_deg).
+/// Invented (when `scene` and `eye` are given): a known cell whose true
+/// surface point is hidden from `eye` (the sensor) by something more than
+/// 2 cm nearer along its ray (one cell in four looked at).
 MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Eigen::Isometry3d& base,
-                  const SceneEvalOptions& o, const HitCells* hits = nullptr, double seen_after = 0.0) {
+                  const SceneEvalOptions& o, const HitCells* hits = nullptr, double seen_after = 0.0,
+                  const Scene* scene = nullptr, const Eigen::Vector3d* eye = nullptr) {
   const core::HeightMapParams& hp = grid.params;
   const long i0 = std::lround(hp.origin_x / hp.resolution), j0 = std::lround(hp.origin_y / hp.resolution);
   const Eigen::Vector2d c = base.translation().head<2>();
   const Eigen::Vector2d fwd = (base.linear() * Eigen::Vector3d::UnitX()).head<2>().normalized();
-  double se = 0.0;
-  int known = 0, expected = 0, front_known = 0, front_expected = 0, front_hit = 0;
+  double se = 0.0, se_walk = 0.0;
+  int known = 0, expected = 0, front_known = 0, front_expected = 0, front_hit = 0, walk_known = 0;
+  int looked = 0, invented = 0;
+  const long margin = std::max(1L, std::lround(0.05 / hp.resolution));
+  const double rise = margin * hp.resolution * std::tan(hp.max_slope_deg * M_PI / 180.0);
   for (int iy = 0; iy < hp.height; ++iy)
     for (int ix = 0; ix < hp.width; ++ix) {
       const Eigen::Vector2d d = Eigen::Vector2d(hp.origin_x + (ix + 0.5) * hp.resolution,
@@ -122,9 +134,28 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
       if (std::isnan(h)) continue;
       ++known;
       se += (h - t) * (h - t);
+      bool walkable = true;
+      for (const auto& [di, dj] : {std::pair<long, long>{margin, 0}, {-margin, 0}, {0, margin}, {0, -margin}}) {
+        const float tn = truth.at(i0 + ix + di, j0 + iy + dj);
+        walkable = walkable && !std::isnan(tn) && std::abs(tn - t) <= rise;
+      }
+      if (walkable) {
+        ++walk_known;
+        se_walk += (h - t) * (h - t);
+      }
+      if (scene && eye && ix % 2 == 0 && iy % 2 == 0) {
+        const Eigen::Vector3d q(hp.origin_x + (ix + 0.5) * hp.resolution, hp.origin_y + (iy + 0.5) * hp.resolution, t);
+        const Eigen::Vector3d ray = q - *eye;
+        const double dist = ray.norm();
+        Hit hit;
+        ++looked;
+        invented += dist > 0.05 && scene->raycast(*eye, ray / dist, dist - 0.02, hit);
+      }
     }
   MapScore m;
   m.rmse = known ? std::sqrt(se / known) : 0.0;
+  m.walkable_rmse = walk_known ? std::sqrt(se_walk / walk_known) : 0.0;
+  m.invented = looked ? static_cast<double>(invented) / looked : 0.0;
   m.coverage = expected ? static_cast<double>(known) / expected : 0.0;
   m.front = front_expected ? static_cast<double>(front_known) / front_expected : 0.0;
   m.front_observable = front_expected ? static_cast<double>(front_hit) / front_expected : 0.0;
@@ -262,8 +293,11 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   latency += cpuNow() - t0;
   const std::string frame = o.walk.walking() ? "odom" : "base_footprint";
   if (!o.dump_prefix.empty()) dumpSweep(sw, grid, o.dump_prefix, base, frame);
-  const MapScore single = scoreMap(grid, truth_h, base, o);
+  const Eigen::Vector3d eye = core::meanOrigin(sw);
+  const MapScore single = scoreMap(grid, truth_h, base, o, nullptr, 0.0, &scene, &eye);
   e.heightmap_rmse_m = single.rmse;
+  e.walkable_rmse_m = single.walkable_rmse;
+  e.invented = single.invented;
   e.heightmap_coverage = single.coverage;
   e.front_coverage = single.front;
   const double f0 = cpuNow();
@@ -278,6 +312,7 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
       if (q.allFinite()) hits[cellKey(std::lround(std::floor(q.x() / fr)), std::lround(std::floor(q.y() / fr)))] = sw.end;
   const MapScore f = scoreMap(fused.grid(), truth_fused, base, o, &hits, sw.end - o.fused.forget_time);
   e.fused_rmse_m = f.rmse;
+  e.fused_walkable_rmse_m = f.walkable_rmse;
   e.fused_coverage = f.coverage;
   e.fused_front_coverage = f.front;
   e.front_observable = f.front_observable;
@@ -423,19 +458,20 @@ std::string evalCsvHeader() {
   return "sweep,lines,planes,true_faces,correct,over,under,missed,noise,normal_err_deg,offset_err_m,edge_precision,"
          "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
          "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m,mixed_pixels,"
-         "mixed_in_segments,front_observable";
+         "mixed_in_segments,front_observable,walkable_rmse_m,fused_walkable_rmse_m,invented";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
-  char buf[640];
+  char buf[800];
   std::snprintf(buf, sizeof(buf),
                 "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,"
-                "%d,%d,%.3f",
+                "%d,%d,%.3f,%.4f,%.4f,%.4f",
                 sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
                 e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
                 e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
                 e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m,
-                e.mixed_pixels, e.mixed_in_segments, e.front_observable);
+                e.mixed_pixels, e.mixed_in_segments, e.front_observable, e.walkable_rmse_m, e.fused_walkable_rmse_m,
+                e.invented);
   return buf;
 }
 
@@ -476,6 +512,9 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     s.edge_precision += e.edge_precision / n;
     s.edge_recall += e.edge_recall / n;
     s.heightmap_rmse_m += e.heightmap_rmse_m / n;
+    s.walkable_rmse_m += e.walkable_rmse_m / n;
+    s.fused_walkable_rmse_m += e.fused_walkable_rmse_m / n;
+    s.invented += e.invented / n;
     s.heightmap_coverage += e.heightmap_coverage / n;
     s.split_ms += e.split_ms / n;
     s.group_ms += e.group_ms / n;
@@ -486,17 +525,18 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     fused_front /= front_n;
     observable /= front_n;
   }
-  char buf[1024];
+  char buf[1280];
   std::snprintf(buf, sizeof(buf),
                 "correct=%.2f over=%.2f under=%.2f missed=%.2f noise=%.2f normal_err_deg=%.3f offset_err_m=%.4f "
                 "edge_precision=%.3f edge_recall=%.3f heightmap_rmse_m=%.4f heightmap_coverage=%.3f split_ms=%.2f "
                 "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d front_coverage=%.3f "
                 "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f mixed_pixels=%.1f "
-                "mixed_in_segments=%.1f front_observable=%.3f",
+                "mixed_in_segments=%.1f front_observable=%.3f walkable_rmse_m=%.4f fused_walkable_rmse_m=%.4f "
+                "invented=%.4f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
                 s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms, mixed,
-                mixed_in, observable);
+                mixed_in, observable, s.walkable_rmse_m, s.fused_walkable_rmse_m, s.invented);
   return buf;
 }
 

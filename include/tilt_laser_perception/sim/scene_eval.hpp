@@ -86,6 +86,13 @@ struct SweepEval {
   double normal_err_deg = 0.0, offset_err_m = 0.0;  ///< means over correct planes
   double edge_precision = 0.0, edge_recall = 0.0;
   double heightmap_rmse_m = 0.0, heightmap_coverage = 0.0;  ///< the sweep's own map, within heightmap_radius of the base
+  /// The same over the cells of walkable surfaces away from their edges (the
+  /// true heights 5 cm away along x and y within the walkable slope), of the
+  /// sweep's map and of the fused one.
+  double walkable_rmse_m = 0.0, fused_walkable_rmse_m = 0.0;
+  /// The share of the sweep's known cells whose true surface the sensor could
+  /// not see (hidden by something nearer along its ray): cells invented.
+  double invented = 0.0;
   double front_coverage = 0.0;        ///< the sweep's own map, in front of the feet (front_length x front_width)
   double fused_rmse_m = 0.0, fused_coverage = 0.0, fused_front_coverage = 0.0;  ///< the same of the fused map
   /// The front's cells (with a true height) that a point of this sweep or of
