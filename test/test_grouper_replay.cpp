@@ -122,14 +122,14 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
   }
 }
 
-TEST(GrouperReplay, InItsNamespaceTheOccupancyGridAgreesWithTheHeightMap) {
+TEST(GrouperReplay, InItsNamespaceTheOccupancyGridsAgreeWithTheHeightMap) {
   bool check = false;
   ros::param::param("~check_grid", check, check);
   if (!check) GTEST_SKIP() << "~check_grid not set";
   ros::NodeHandle nh;
   std::mutex gm;
   std::vector<HeightMap> hmaps;
-  std::vector<nav_msgs::OccupancyGrid> grids;
+  std::vector<nav_msgs::OccupancyGrid> grids, steppable;
   int scans = 0;
   ros::Subscriber s1 = nh.subscribe<HeightMap>("height_map", 10, [&](const HeightMap::ConstPtr& h) {
     std::lock_guard<std::mutex> l(gm);
@@ -139,6 +139,11 @@ TEST(GrouperReplay, InItsNamespaceTheOccupancyGridAgreesWithTheHeightMap) {
                                                              [&](const nav_msgs::OccupancyGrid::ConstPtr& g) {
                                                                std::lock_guard<std::mutex> l(gm);
                                                                grids.push_back(*g);
+                                                             });
+  ros::Subscriber s4 = nh.subscribe<nav_msgs::OccupancyGrid>("steppable_grid", 10,
+                                                             [&](const nav_msgs::OccupancyGrid::ConstPtr& g) {
+                                                               std::lock_guard<std::mutex> l(gm);
+                                                               steppable.push_back(*g);
                                                              });
   ros::Subscriber s3 = nh.subscribe<sensor_msgs::LaserScan>("scan", 10, [&](const sensor_msgs::LaserScan::ConstPtr&) {
     std::lock_guard<std::mutex> l(gm);
@@ -152,7 +157,9 @@ TEST(GrouperReplay, InItsNamespaceTheOccupancyGridAgreesWithTheHeightMap) {
     std::lock_guard<std::mutex> l(gm);
     matched = 0;
     for (const auto& g : grids)
-      for (const auto& h : hmaps) matched += g.header.stamp == h.header.stamp;
+      for (const auto& h : hmaps)
+        for (const auto& st : steppable)
+          matched += g.header.stamp == h.header.stamp && st.header.stamp == h.header.stamp;
   }
   std::lock_guard<std::mutex> l(gm);
   EXPECT_GT(scans, 40) << "scans in " << nh.getNamespace();
@@ -181,12 +188,32 @@ TEST(GrouperReplay, InItsNamespaceTheOccupancyGridAgreesWithTheHeightMap) {
       std::printf("grid at %.3f: %zu of %zu cells known, %zu obstacles, agreeing with the height map\n",
                   g.header.stamp.toSec(), known, g.data.size(), obstacles);
     }
+  // The steppable layer: unknown where the map is, steppable only on the
+  // floor and the treads (never an obstacle), and on a good part of them.
+  for (const auto& st : steppable)
+    for (const auto& h : hmaps) {
+      if (st.header.stamp != h.header.stamp) continue;
+      ASSERT_EQ(st.data.size(), h.classes.size());
+      std::size_t fits = 0, wrong = 0, walkable = 0;
+      for (std::size_t i = 0; i < st.data.size(); ++i) {
+        const bool unknown = h.classes[i] == HeightMap::CLASS_UNKNOWN;
+        const bool surface = h.classes[i] == HeightMap::CLASS_FLOOR || h.classes[i] == HeightMap::CLASS_STEP;
+        wrong += (st.data[i] == -1) != unknown || (st.data[i] == 0 && !surface);
+        fits += st.data[i] == 0;
+        walkable += surface;
+      }
+      EXPECT_EQ(wrong, 0u);
+      EXPECT_GT(fits, walkable / 3) << "a foot fits on a third of the walkable cells at least";
+      EXPECT_LT(fits, walkable) << "not next to edges";
+      std::printf("steppable at %.3f: %zu of %zu walkable cells\n", st.header.stamp.toSec(), fits, walkable);
+    }
   // Everything the head publishes is in the namespace: nothing of it in the root.
   ros::master::V_TopicInfo topics;
   ASSERT_TRUE(ros::master::getTopics(topics));
   const std::string ns = nh.getNamespace();
   for (const auto& t : topics)
-    for (const char* name : {"/scan", "/planes", "/height_map", "/height_map_grid", "/joint_states", "/scan_segments"})
+    for (const char* name :
+         {"/scan", "/planes", "/height_map", "/height_map_grid", "/steppable_grid", "/joint_states", "/scan_segments"})
       EXPECT_NE(t.name, name) << "published in the root namespace, not in " << ns;
 }
 

@@ -199,3 +199,65 @@ TEST(HeightMap, APlaneFillsOnlyBetweenItsLinesNotAcrossWhatTheyDidNotSee) {
   EXPECT_NEAR(g.heights[at(1.6, 0.03)], 0.0, 1e-6);
   EXPECT_EQ(g.classes[at(1.6, 0.03)], CellClass::Floor);
 }
+
+TEST(HeightMap, AFootOfAnyYawFitsWhereItsDiscLiesOnOnePlane) {
+  // 2 x 2 m of floor (plane 0), a tread 0.15 m up over x 1.0-1.3 (plane 1),
+  // an obstacle cell at (0.505, 0.505), a cell nobody saw at (1.705, 1.705),
+  // a steep plane (2) over x 1.9-2.0. HRP-4's foot: 0.24 x 0.14 m, a disc of
+  // radius 0.139 m over all its yaws.
+  HeightMapGrid g;
+  g.params.resolution = 0.01;
+  g.params.origin_x = g.params.origin_y = 0.0;
+  g.params.width = g.params.height = 200;
+  const std::size_t n = 200 * 200;
+  g.heights.assign(n, 0.0f);
+  g.plane_ids.assign(n, 0);
+  g.classes.assign(n, CellClass::Floor);
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x) {
+      const std::size_t c = g.index(x, y);
+      if (x >= 100 && x < 130) {
+        g.heights[c] = 0.15f;
+        g.plane_ids[c] = 1;
+        g.classes[c] = CellClass::Step;
+      }
+      if (x >= 190) g.plane_ids[c] = 2;
+    }
+  g.classes[g.index(50, 50)] = CellClass::Obstacle;
+  g.heights[g.index(50, 50)] = 0.4f;
+  g.plane_ids[g.index(50, 50)] = -1;
+  g.heights[g.index(170, 170)] = std::numeric_limits<float>::quiet_NaN();
+  g.plane_ids[g.index(170, 170)] = -1;
+  Plane floor, tread, steep;
+  floor.id = 0;
+  tread.id = 1;
+  tread.fit.offset = 0.15;
+  steep.id = 2;
+  steep.fit.normal = Eigen::Vector3d(std::sin(0.5), 0.0, std::cos(0.5));  // 29 degrees
+  FootParams foot;
+  ASSERT_EQ(foot.validate(), "");
+  EXPECT_NEAR(foot.radius(), 0.1389, 1e-4);
+  std::vector<std::uint8_t> s;
+  steppableCells(g, {floor, tread, steep}, foot, s);
+  const auto at = [&](double x, double y) { return s[g.index(static_cast<int>(x / 0.01), static_cast<int>(y / 0.01))]; };
+  EXPECT_EQ(at(0.305, 1.505), 1);
+  EXPECT_EQ(at(0.905, 1.005), 0);  // 9.5 cm from the tread's edge
+  EXPECT_EQ(at(0.845, 1.005), 1);  // 15.5 cm
+  EXPECT_EQ(at(1.155, 1.005), 1);  // the tread's middle: 15 cm from each edge
+  EXPECT_EQ(at(1.055, 1.005), 0);
+  EXPECT_EQ(at(0.505, 0.625), 0);  // 12 cm from the obstacle
+  EXPECT_EQ(at(0.505, 0.655), 1);  // 15 cm
+  EXPECT_EQ(at(0.615, 0.615), 1);  // 15.6 cm diagonally: within the square around the disc, outside the disc
+  EXPECT_EQ(at(0.595, 0.595), 0);  // 12.7 cm diagonally
+  EXPECT_EQ(at(1.705, 1.705), 255);
+  EXPECT_EQ(at(1.705, 1.805), 0);  // 10 cm from the cell nobody saw
+  EXPECT_EQ(at(1.955, 1.005), 0);  // too steep
+  EXPECT_EQ(at(0.055, 1.005), 0);  // the foot would reach beyond the map
+  // Too rough a floor holds no foot.
+  floor.fit.rms = 0.03;
+  steppableCells(g, {floor, tread, steep}, foot, s);
+  EXPECT_EQ(at(0.305, 1.505), 0);
+  EXPECT_EQ(at(1.155, 1.005), 1);
+  foot.width = 0.5;
+  EXPECT_NE(foot.validate(), "");
+}

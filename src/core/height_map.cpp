@@ -397,5 +397,70 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   }
 }
 
+std::string FootParams::validate() const {
+  if (!(length > 0.0 && length <= 1.0) || !(width > 0.0 && width <= length)) return "foot: need 0 < width <= length <= 1 m";
+  if (!(max_tilt_deg >= 0.0 && max_tilt_deg < 90.0)) return "foot: max_tilt_deg must be in [0, 90)";
+  if (!(max_roughness > 0.0)) return "foot: max_roughness must be > 0";
+  return "";
+}
+
+void steppableCells(const HeightMapGrid& g, const std::vector<Plane>& planes, const FootParams& foot,
+                    std::vector<std::uint8_t>& out) {
+  const int w = g.params.width, h = g.params.height;
+  out.assign(static_cast<std::size_t>(w) * h, 255);
+  if (w <= 0 || h <= 0 || g.heights.size() != out.size()) return;
+  // The planes a foot may stand on.
+  int max_id = -1;
+  for (const Plane& pl : planes) max_id = std::max(max_id, pl.id);
+  std::vector<char> good(static_cast<std::size_t>(max_id + 1), 0);
+  const double cos_tilt = std::cos(foot.max_tilt_deg * M_PI / 180.0);
+  for (const Plane& pl : planes)
+    if (pl.id >= 0) good[pl.id] = std::abs(pl.fit.normal.z()) >= cos_tilt && pl.fit.rms <= foot.max_roughness;
+  const auto goodCell = [&](std::size_t c) {
+    const std::int32_t id = g.plane_ids[c];
+    return std::isfinite(g.heights[c]) && g.classes[c] != CellClass::Obstacle && id >= 0 && id <= max_id && good[id];
+  };
+  // Cells no foot may reach over: not good, or next to a cell of another
+  // plane (one of every two cells across a boundary). Their integral image.
+  std::vector<std::int32_t> sum(static_cast<std::size_t>(w + 1) * (h + 1), 0);
+  const auto S = [&](int x, int y) -> std::int32_t& { return sum[static_cast<std::size_t>(y) * (w + 1) + x]; };
+  for (int y = 0; y < h; ++y) {
+    std::int32_t row = 0;
+    for (int x = 0; x < w; ++x) {
+      const std::size_t c = g.index(x, y);
+      const std::int32_t id = g.plane_ids[c];
+      const bool bad = !goodCell(c) || (x + 1 < w && g.plane_ids[c + 1] != id) ||
+                       (y + 1 < h && g.plane_ids[c + static_cast<std::size_t>(w)] != id);
+      row += bad;
+      S(x + 1, y + 1) = S(x + 1, y) + row;
+    }
+  }
+  // Bad cells in [x0, x1] x [y0, y1] (inclusive, within the map).
+  const auto bad = [&](int x0, int y0, int x1, int y1) { return S(x1 + 1, y1 + 1) - S(x0, y1 + 1) - S(x1 + 1, y0) + S(x0, y0); };
+  const double rc = foot.radius() / g.params.resolution;  // in cells
+  const int r = static_cast<int>(std::floor(rc)), a = static_cast<int>(std::floor(rc / std::sqrt(2.0)));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const std::size_t c = g.index(x, y);
+      if (!std::isfinite(g.heights[c])) continue;
+      std::uint8_t& o = out[c];
+      // Beyond the map is unknown: a foot that reaches there is not known to fit.
+      if (!goodCell(c) || x < r || y < r || x + r >= w || y + r >= h || bad(x - a, y - a, x + a, y + a) > 0) {
+        o = 0;
+        continue;
+      }
+      if (bad(x - r, y - r, x + r, y + r) == 0) {
+        o = 1;
+        continue;
+      }
+      // Between the square within the disc and the square around it: row by row.
+      o = 1;
+      for (int dy = -r; dy <= r && o; ++dy) {
+        const int half = static_cast<int>(std::floor(std::sqrt(std::max(0.0, rc * rc - dy * dy))));
+        if (bad(x - half, y + dy, x + half, y + dy) > 0) o = 0;
+      }
+    }
+}
+
 }  // namespace core
 }  // namespace tilt_laser_perception

@@ -258,6 +258,14 @@ void toOccupancyGrid(const core::HeightMapGrid& g, nav_msgs::OccupancyGrid& msg)
   for (std::size_t i = 0; i < g.classes.size(); ++i) msg.data[i] = core::occupancyOfClass(g.classes[i]);
 }
 
+void steppableGrid(const core::HeightMapGrid& g, const std::vector<std::uint8_t>& steppable,
+                   nav_msgs::OccupancyGrid& msg) {
+  toMsg(g, msg.info);
+  msg.data.resize(steppable.size());
+  for (std::size_t i = 0; i < steppable.size(); ++i)
+    msg.data[i] = steppable[i] == 1 ? 0 : steppable[i] == 0 ? 100 : -1;
+}
+
 void heightMapCloud(const core::HeightMapGrid& g, sensor_msgs::PointCloud2& cloud) {
   std::size_t known = 0;
   float zmin = 1e30f, zmax = -1e30f;

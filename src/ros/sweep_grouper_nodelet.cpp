@@ -67,6 +67,14 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("map_max_slope_deg", map_params_.max_slope_deg, map_params_.max_slope_deg);
   pnh.param("map_max_step_height", map_params_.max_step_height, map_params_.max_step_height);
   pnh.param("map_obstacle_min_height", map_params_.obstacle_min_height, map_params_.obstacle_min_height);
+  pnh.param("foot_length", foot_.length, foot_.length);
+  pnh.param("foot_width", foot_.width, foot_.width);
+  pnh.param("foot_max_tilt_deg", foot_.max_tilt_deg, foot_.max_tilt_deg);
+  pnh.param("foot_max_roughness", foot_.max_roughness, foot_.max_roughness);
+  if (const std::string bad = foot_.validate(); !bad.empty()) {
+    NODELET_ERROR("invalid foot parameters (%s): using HRP-4's", bad.c_str());
+    foot_ = core::FootParams();
+  }
   core::FusedMapParams fp;
   pnh.param("fuse_sweeps", fuse_, false);
   pnh.param<std::string>("robot_frame", robot_frame_, "base_footprint");
@@ -133,6 +141,7 @@ void SweepGrouperNodelet::onInit() {
   if (fuse_) terrain_pub_ = nh.advertise<PlanePolygonArray>("terrain_planes", 2, true);
   map_pub_ = nh.advertise<HeightMap>("height_map", 2);
   grid_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("height_map_grid", 2);
+  steppable_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("steppable_grid", 2);
   map_cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("height_map_cloud", 2);
   sweep_cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("sweep_cloud", 2);
   edges_pub_ = nh.advertise<sensor_msgs::PointCloud2>("edge_points", 2);
@@ -457,11 +466,20 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
     occupancy->info.map_load_time = header.stamp;
     grid_pub_.publish(occupancy);
   }
+  std::vector<core::Plane> kept;  // the fused map's planes, which its plane ids name
+  if (fused_)
+    for (const auto& [id, tp] : fused_->map().planes()) kept.push_back(tp.plane);
+  if (steppable_pub_.getNumSubscribers() > 0) {
+    core::steppableCells(grid, fused_ ? kept : sweep.planes, foot_, steppable_);
+    auto steppable = boost::make_shared<nav_msgs::OccupancyGrid>();
+    steppable->header = header;
+    steppableGrid(grid, steppable_, *steppable);
+    steppable->info.map_load_time = header.stamp;
+    steppable_pub_.publish(steppable);
+  }
   if (fused_) {
     auto terrain = boost::make_shared<PlanePolygonArray>();
     terrain->header = header;
-    std::vector<core::Plane> kept;
-    for (const auto& [id, tp] : fused_->map().planes()) kept.push_back(tp.plane);
     toMsg(kept, *terrain);
     terrain_pub_.publish(terrain);
   }

@@ -84,6 +84,7 @@ struct MapScore {
   double rmse = 0.0, coverage = 0.0, front = 0.0, front_observable = 0.0;
   double walkable_rmse = 0.0;  ///< over the cells of walkable surfaces away from their edges
   double invented = 0.0;       ///< share of the known cells whose true surface the sensor could not see
+  double steppable_precision = 0.0, steppable_recall = 0.0;  ///< of the steppable layer (when planes are given)
 };
 
 /// The map cells (world indices at one resolution) that points fell in, and when.
@@ -102,7 +103,31 @@ std::uint64_t cellKey(long i, long j) {
 /// 2 cm nearer along its ray (one cell in four looked at).
 MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Eigen::Isometry3d& base,
                   const SceneEvalOptions& o, const HitCells* hits = nullptr, double seen_after = 0.0,
-                  const Scene* scene = nullptr, const Eigen::Vector3d* eye = nullptr) {
+                  const Scene* scene = nullptr, const Eigen::Vector3d* eye = nullptr,
+                  const std::vector<core::Plane>* planes = nullptr) {
+  // The steppable layer against the truth: a foot centred on the cell rests
+  // on one true plane whatever its yaw when the true heights at its centre
+  // and on circles of its radius and half of it (16 points) lie within 5 mm
+  // of one plane within the foot's tilt.
+  std::vector<std::uint8_t> steppable;
+  if (planes) core::steppableCells(grid, *planes, o.foot, steppable);
+  const double rc = std::floor(o.foot.radius() / grid.params.resolution);  // whole cells within the disc
+  const auto trulySteppable = [&](long i, long j) {
+    Eigen::Matrix<double, 17, 3> A;
+    Eigen::Matrix<double, 17, 1> z;
+    for (int k = 0; k < 17; ++k) {
+      const double ang = (k % 8) * M_PI / 4.0, rad = k == 16 ? 0.0 : (k < 8 ? rc : 0.5 * rc);
+      const long di = std::lround(rad * std::cos(ang)), dj = std::lround(rad * std::sin(ang));
+      const float t = truth.at(i + di, j + dj);
+      if (std::isnan(t)) return false;
+      A.row(k) << 1.0, static_cast<double>(di), static_cast<double>(dj);
+      z(k) = t;
+    }
+    const Eigen::Vector3d c = A.colPivHouseholderQr().solve(z);
+    const double slope = std::hypot(c(1), c(2)) / grid.params.resolution;
+    return (A * c - z).cwiseAbs().maxCoeff() <= 0.005 && slope <= std::tan(o.foot.max_tilt_deg * M_PI / 180.0);
+  };
+  int map_step = 0, true_step = 0, both = 0;
   const core::HeightMapParams& hp = grid.params;
   const long i0 = std::lround(hp.origin_x / hp.resolution), j0 = std::lround(hp.origin_y / hp.resolution);
   const Eigen::Vector2d c = base.translation().head<2>();
@@ -143,6 +168,20 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
         ++walk_known;
         se_walk += (h - t) * (h - t);
       }
+      if (!steppable.empty() && ix % 2 == 0 && iy % 2 == 0) {  // one cell in four
+        // Recall over the cells whose foot's disc the map knows (at its 17 points).
+        bool seen = true;
+        for (int k = 0; k < 17 && seen; ++k) {
+          const double ang = (k % 8) * M_PI / 4.0, rad = k == 16 ? 0.0 : (k < 8 ? rc : 0.5 * rc);
+          const long x = ix + std::lround(rad * std::cos(ang)), y = iy + std::lround(rad * std::sin(ang));
+          seen = x >= 0 && y >= 0 && x < hp.width && y < hp.height &&
+                 std::isfinite(grid.heights[grid.index(static_cast<int>(x), static_cast<int>(y))]);
+        }
+        const bool m = steppable[grid.index(ix, iy)] == 1, tr = seen && trulySteppable(i0 + ix, j0 + iy);
+        map_step += m;
+        true_step += tr;
+        both += m && tr;  // (a cell the map calls steppable has its whole disc known)
+      }
       if (scene && eye && ix % 2 == 0 && iy % 2 == 0) {
         const Eigen::Vector3d q(hp.origin_x + (ix + 0.5) * hp.resolution, hp.origin_y + (iy + 0.5) * hp.resolution, t);
         const Eigen::Vector3d ray = q - *eye;
@@ -156,6 +195,8 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   m.rmse = known ? std::sqrt(se / known) : 0.0;
   m.walkable_rmse = walk_known ? std::sqrt(se_walk / walk_known) : 0.0;
   m.invented = looked ? static_cast<double>(invented) / looked : 0.0;
+  m.steppable_precision = map_step ? static_cast<double>(both) / map_step : 1.0;
+  m.steppable_recall = true_step ? static_cast<double>(both) / true_step : 1.0;
   m.coverage = expected ? static_cast<double>(known) / expected : 0.0;
   m.front = front_expected ? static_cast<double>(front_known) / front_expected : 0.0;
   m.front_observable = front_expected ? static_cast<double>(front_hit) / front_expected : 0.0;
@@ -294,7 +335,9 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   const std::string frame = o.walk.walking() ? "odom" : "base_footprint";
   if (!o.dump_prefix.empty()) dumpSweep(sw, grid, o.dump_prefix, base, frame);
   const Eigen::Vector3d eye = core::meanOrigin(sw);
-  const MapScore single = scoreMap(grid, truth_h, base, o, nullptr, 0.0, &scene, &eye);
+  const MapScore single = scoreMap(grid, truth_h, base, o, nullptr, 0.0, &scene, &eye, &sw.planes);
+  e.steppable_precision = single.steppable_precision;
+  e.steppable_recall = single.steppable_recall;
   e.heightmap_rmse_m = single.rmse;
   e.walkable_rmse_m = single.walkable_rmse;
   e.invented = single.invented;
@@ -458,20 +501,21 @@ std::string evalCsvHeader() {
   return "sweep,lines,planes,true_faces,correct,over,under,missed,noise,normal_err_deg,offset_err_m,edge_precision,"
          "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
          "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m,mixed_pixels,"
-         "mixed_in_segments,front_observable,walkable_rmse_m,fused_walkable_rmse_m,invented";
+         "mixed_in_segments,front_observable,walkable_rmse_m,fused_walkable_rmse_m,invented,steppable_precision,"
+         "steppable_recall";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
   char buf[800];
   std::snprintf(buf, sizeof(buf),
                 "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,"
-                "%d,%d,%.3f,%.4f,%.4f,%.4f",
+                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f",
                 sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
                 e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
                 e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
                 e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m,
                 e.mixed_pixels, e.mixed_in_segments, e.front_observable, e.walkable_rmse_m, e.fused_walkable_rmse_m,
-                e.invented);
+                e.invented, e.steppable_precision, e.steppable_recall);
   return buf;
 }
 
@@ -515,6 +559,8 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     s.walkable_rmse_m += e.walkable_rmse_m / n;
     s.fused_walkable_rmse_m += e.fused_walkable_rmse_m / n;
     s.invented += e.invented / n;
+    s.steppable_precision += e.steppable_precision / n;
+    s.steppable_recall += e.steppable_recall / n;
     s.heightmap_coverage += e.heightmap_coverage / n;
     s.split_ms += e.split_ms / n;
     s.group_ms += e.group_ms / n;
@@ -532,11 +578,12 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
                 "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d front_coverage=%.3f "
                 "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f mixed_pixels=%.1f "
                 "mixed_in_segments=%.1f front_observable=%.3f walkable_rmse_m=%.4f fused_walkable_rmse_m=%.4f "
-                "invented=%.4f",
+                "invented=%.4f steppable_precision=%.4f steppable_recall=%.4f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
                 s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms, mixed,
-                mixed_in, observable, s.walkable_rmse_m, s.fused_walkable_rmse_m, s.invented);
+                mixed_in, observable, s.walkable_rmse_m, s.fused_walkable_rmse_m, s.invented, s.steppable_precision,
+                s.steppable_recall);
   return buf;
 }
 

@@ -9,7 +9,9 @@
  */
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "tilt_laser_perception/core/sweep.hpp"
@@ -61,6 +63,28 @@ struct HeightMapGrid {
 /// tolerance (centimetres), so they are beside it too: the far walls and
 /// floor, most of a sweep's points, are not looked at one by one.
 bool besideMap(const Segment3& s, const HeightMapParams& params);
+
+/// A foot a planner would place: HRP-4's sole by default.
+struct FootParams {
+  double length = 0.24;         ///< [m]
+  double width = 0.14;          ///< [m]
+  double max_tilt_deg = 15.0;   ///< the plane under it, from level [deg]
+  /// The plane's rms about its fit [m]: a surface rougher than this, beyond
+  /// the laser's own noise (10 mm), holds no foot flat.
+  double max_roughness = 0.02;
+  std::string validate() const;
+  /// The radius a foot centred on a cell sweeps over all its yaws [m].
+  double radius() const { return 0.5 * std::hypot(length, width); }
+};
+
+/// Steppable cells: a foot centred on the cell rests on one plane whatever
+/// its yaw. Every cell within the foot's radius (the disc all its yaws
+/// cover) is known, of one walkable plane (not an obstacle), that plane
+/// within max_tilt_deg of level and max_roughness rms. Per cell, row-major:
+/// 1 steppable, 0 not, 255 unknown (the cell itself unknown). `planes` are
+/// those the map's plane ids name (Plane::id).
+void steppableCells(const HeightMapGrid& grid, const std::vector<Plane>& planes, const FootParams& foot,
+                    std::vector<std::uint8_t>& out);
 
 /// Builds the height map of a sweep (planes and points in the map frame, z up).
 /// When `out` holds the map an earlier call made of the same size (unchanged

@@ -62,6 +62,10 @@ void toMsg(const core::HeightMapGrid& grid, HeightMap& msg);
 void toMsg(const core::HeightMapGrid& grid, nav_msgs::MapMetaData& info);
 /// The classes as occupancy (core::occupancyOfClass), for costmaps and rviz's Map display.
 void toOccupancyGrid(const core::HeightMapGrid& grid, nav_msgs::OccupancyGrid& msg);
+/// The steppable layer (core::steppableCells: 1, 0, 255) as occupancy: a
+/// foot fits 0 (free), it does not 100, unknown -1.
+void steppableGrid(const core::HeightMapGrid& grid, const std::vector<std::uint8_t>& steppable,
+                   nav_msgs::OccupancyGrid& msg);
 /// The height map as a cloud of its known cells (x y z rgb, coloured by height).
 void heightMapCloud(const core::HeightMapGrid& grid, sensor_msgs::PointCloud2& cloud);
 /// The sweep as an organized cloud: a row per scan line, a column per beam;

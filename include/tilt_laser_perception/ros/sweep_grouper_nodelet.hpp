@@ -94,6 +94,8 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   double stale_after_ = 5.0, last_sweep_duration_ = 0.0, first_scan_ = -1.0;
   core::SweepParams sweep_params_;
   core::HeightMapParams map_params_;
+  core::FootParams foot_;  // the steppable layer's
+  std::vector<std::uint8_t> steppable_;
   core::HeightMapGrid grid_;  // reused: no page faults per sweep
   // ~fuse_sweeps: height_map is the map fused over sweeps, its centre on ~robot_frame.
   bool fuse_ = false;
@@ -107,7 +109,8 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>> sync_;
   ros::Subscriber scan_sub_, segments_sub_, joint_sub_;
   ros::Publisher planes_pub_, terrain_pub_, map_pub_, map_cloud_pub_, sweep_cloud_pub_, edges_pub_, markers_pub_;
-  ros::Publisher grid_pub_;  // height_map_grid: the classes as nav_msgs/OccupancyGrid
+  ros::Publisher grid_pub_;       // height_map_grid: the classes as nav_msgs/OccupancyGrid
+  ros::Publisher steppable_pub_;  // steppable_grid: where a foot fits, as nav_msgs/OccupancyGrid
   ros::Timer poll_timer_, diag_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTime last_warn_;

@@ -46,6 +46,7 @@ struct SceneEvalOptions {
   core::SplitParams split;
   core::SweepParams sweep;
   core::HeightMapParams heightmap;     ///< the single sweep's map (its origin relative to the robot's base)
+  core::FootParams foot;                ///< the steppable layer's foot (HRP-4's sole)
   WalkParams walk;                      ///< the robot walks (default: it stands)
   /// Each line put in the frame with the odometry's pose at its own time
   /// (false: every line of a sweep with the pose of the sweep's end, as one
@@ -93,6 +94,11 @@ struct SweepEval {
   /// The share of the sweep's known cells whose true surface the sensor could
   /// not see (hidden by something nearer along its ray): cells invented.
   double invented = 0.0;
+  /// The steppable layer (core::steppableCells, SceneEvalOptions::foot)
+  /// against the truth (a foot's disc on one true plane within its tilt):
+  /// the share of the cells it calls steppable that are, and of the truly
+  /// steppable cells it knows (within the map's radius) that it finds.
+  double steppable_precision = 0.0, steppable_recall = 0.0;
   double front_coverage = 0.0;        ///< the sweep's own map, in front of the feet (front_length x front_width)
   double fused_rmse_m = 0.0, fused_coverage = 0.0, fused_front_coverage = 0.0;  ///< the same of the fused map
   /// The front's cells (with a true height) that a point of this sweep or of
