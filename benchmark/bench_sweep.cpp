@@ -2,7 +2,8 @@
 // 10..60 deg at 0.175 rad/s): the whole sweep's split and grouping CPU time,
 // and the latency from the last scan line to the planes and the height map
 // (medians over 20 sweeps, five times: the median and the minimum of the five),
-// and the time to fuse the sweep into the fused map instead (fused_ms). And
+// and the time to fuse the sweep into the fused map instead (fused_ms), and
+// the steppable layer's (steppable_ms, built while subscribed). And
 // one plane fit against Eigen's direct solver (PlaneFit, PlaneFitEigenDirect).
 #include <benchmark/benchmark.h>
 
@@ -82,7 +83,8 @@ static void Sweep1081x200(benchmark::State& state) {
   const Recording& rec = recording();
   core::ScanSplitter splitter;
   core::SplitResult split;
-  std::vector<double> split_s, group_s, latency_s, finish_s, map_s, fused_s;  // per sweep [s]
+  std::vector<double> split_s, group_s, latency_s, finish_s, map_s, fused_s, steppable_s;  // per sweep [s]
+  std::vector<std::uint8_t> steppable;
   core::HeightMapGrid grid;  // kept between sweeps, as the nodelet keeps it
   // The map fused over sweeps (~fuse_sweeps), 6 m x 6 m at 1 cm, in place of the sweep's own.
   core::FusedHeightMap fused{core::HeightMapParams(), core::FusedMapParams()};
@@ -127,6 +129,9 @@ static void Sweep1081x200(benchmark::State& state) {
     const double t1 = now();
     core::buildHeightMap(done, core::HeightMapParams(), grid);
     const double map = now() - t1;
+    const double t3 = now();
+    core::steppableCells(grid, done.planes, core::FootParams(), steppable);
+    steppable_s.push_back(now() - t3);
     const double t2 = now();
     fused.recentre(0.0, 0.0);
     fused.addSweep(done, core::meanOrigin(done), static_cast<double>(sweeps), 0.0);
@@ -149,6 +154,7 @@ static void Sweep1081x200(benchmark::State& state) {
   state.counters["finish_ms"] = medianMs(finish_s);
   state.counters["map_ms"] = medianMs(map_s);
   state.counters["fused_ms"] = medianMs(fused_s);  // instead of map_ms with ~fuse_sweeps
+  state.counters["steppable_ms"] = medianMs(steppable_s);  // the steppable layer, when subscribed
 }
 // Five runs of 20 sweeps: the median and the fastest run's figures (on a
 // shared machine the neighbours only ever add time).

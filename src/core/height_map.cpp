@@ -421,31 +421,51 @@ void steppableCells(const HeightMapGrid& g, const std::vector<Plane>& planes, co
     return std::isfinite(g.heights[c]) && g.classes[c] != CellClass::Obstacle && id >= 0 && id <= max_id && good[id];
   };
   // Cells no foot may reach over: not good, or next to a cell of another
-  // plane (one of every two cells across a boundary). Their integral image.
-  std::vector<std::int32_t> sum(static_cast<std::size_t>(w + 1) * (h + 1), 0);
-  const auto S = [&](int x, int y) -> std::int32_t& { return sum[static_cast<std::size_t>(y) * (w + 1) + x]; };
-  for (int y = 0; y < h; ++y) {
+  // plane (one of every two cells across a boundary). Only the map's box
+  // holds known cells: beyond it everything is unknown, so bad.
+  // (A grid buildHeightMap did not make may keep no box: the whole map.)
+  const bool boxed = g.box_x1 >= g.box_x0 && g.box_y1 >= g.box_y0;
+  const int bx0 = boxed ? std::max(0, g.box_x0) : 0, by0 = boxed ? std::max(0, g.box_y0) : 0;
+  const int bx1 = boxed ? std::min(w - 1, g.box_x1) : w - 1, by1 = boxed ? std::min(h - 1, g.box_y1) : h - 1;
+  const int bw = bx1 - bx0 + 1, bh = by1 - by0 + 1;
+  // Within the box: its integral image, and each cell's distance along its
+  // row to the nearest bad cell (cells beyond the box are bad).
+  std::vector<std::int32_t> sum(static_cast<std::size_t>(bw + 1) * (bh + 1), 0);
+  std::vector<std::int16_t> dist(static_cast<std::size_t>(bw) * bh);
+  const auto S = [&](int x, int y) -> std::int32_t& { return sum[static_cast<std::size_t>(y) * (bw + 1) + x]; };
+  const auto D = [&](int x, int y) -> std::int16_t& { return dist[static_cast<std::size_t>(y) * bw + x]; };
+  for (int y = 0; y < bh; ++y) {
     std::int32_t row = 0;
-    for (int x = 0; x < w; ++x) {
-      const std::size_t c = g.index(x, y);
+    std::int16_t last = 0;  // cells since the last bad one (the box's edge is one)
+    for (int x = 0; x < bw; ++x) {
+      const std::size_t c = g.index(bx0 + x, by0 + y);
       const std::int32_t id = g.plane_ids[c];
-      const bool bad = !goodCell(c) || (x + 1 < w && g.plane_ids[c + 1] != id) ||
-                       (y + 1 < h && g.plane_ids[c + static_cast<std::size_t>(w)] != id);
+      const bool bad = !goodCell(c) || (bx0 + x + 1 < w && g.plane_ids[c + 1] != id) ||
+                       (by0 + y + 1 < h && g.plane_ids[c + static_cast<std::size_t>(w)] != id);
       row += bad;
       S(x + 1, y + 1) = S(x + 1, y) + row;
+      last = bad ? 0 : static_cast<std::int16_t>(std::min(last + 1, 30000));
+      D(x, y) = last;
+    }
+    last = 0;  // from the right: the box's edge
+    for (int x = bw - 1; x >= 0; --x) {
+      last = D(x, y) == 0 ? 0 : static_cast<std::int16_t>(std::min(last + 1, 30000));
+      D(x, y) = std::min(D(x, y), last);
     }
   }
-  // Bad cells in [x0, x1] x [y0, y1] (inclusive, within the map).
+  // Bad cells in [x0, x1] x [y0, y1] (box coordinates, inclusive, within it).
   const auto bad = [&](int x0, int y0, int x1, int y1) { return S(x1 + 1, y1 + 1) - S(x0, y1 + 1) - S(x1 + 1, y0) + S(x0, y0); };
   const double rc = foot.radius() / g.params.resolution;  // in cells
   const int r = static_cast<int>(std::floor(rc)), a = static_cast<int>(std::floor(rc / std::sqrt(2.0)));
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const std::size_t c = g.index(x, y);
+  std::vector<int> half(static_cast<std::size_t>(r) + 1);
+  for (int dy = 0; dy <= r; ++dy) half[dy] = static_cast<int>(std::floor(std::sqrt(std::max(0.0, rc * rc - dy * dy))));
+  for (int y = 0; y < bh; ++y)
+    for (int x = 0; x < bw; ++x) {
+      const std::size_t c = g.index(bx0 + x, by0 + y);
       if (!std::isfinite(g.heights[c])) continue;
       std::uint8_t& o = out[c];
-      // Beyond the map is unknown: a foot that reaches there is not known to fit.
-      if (!goodCell(c) || x < r || y < r || x + r >= w || y + r >= h || bad(x - a, y - a, x + a, y + a) > 0) {
+      // Beyond the box is unknown: a foot that reaches there is not known to fit.
+      if (D(x, y) == 0 || x < r || y < r || x + r >= bw || y + r >= bh || bad(x - a, y - a, x + a, y + a) > 0) {
         o = 0;
         continue;
       }
@@ -453,12 +473,11 @@ void steppableCells(const HeightMapGrid& g, const std::vector<Plane>& planes, co
         o = 1;
         continue;
       }
-      // Between the square within the disc and the square around it: row by row.
+      // Between the square within the disc and the square around it: each
+      // row of the disc clear of bad cells for its half-width.
       o = 1;
-      for (int dy = -r; dy <= r && o; ++dy) {
-        const int half = static_cast<int>(std::floor(std::sqrt(std::max(0.0, rc * rc - dy * dy))));
-        if (bad(x - half, y + dy, x + half, y + dy) > 0) o = 0;
-      }
+      for (int dy = 0; dy <= r && o; ++dy)
+        if (D(x, y + dy) <= half[dy] || D(x, y - dy) <= half[dy]) o = 0;
     }
 }
 
