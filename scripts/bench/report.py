@@ -169,7 +169,8 @@ class Report:
         rows = [[k, f"{v:.1f} us"] for k, v in split.items() if "/" in k]
         for key, what in (("split_ms", "split of a 1081 x 200 sweep"), ("group_ms", "grouping of that sweep, as lines arrive"),
                           ("latency_ms", "latency after its last line (finish, map, fused map)"),
-                          ("finish_ms", "of it: the grouping's finish"), ("map_ms", "of it: the height map")):
+                          ("finish_ms", "of it: the grouping's finish"), ("map_ms", "of it: the height map"),
+                          ("steppable_ms", "the steppable layer besides (built while subscribed)")):
             if key in kv:
                 rows.append([what, f"{float(kv[key]):.2f} ms"])
         self.summary["latency"] = f"{float(kv.get('latency_ms', 'nan')):.2f} ms"
