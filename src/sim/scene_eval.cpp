@@ -112,12 +112,18 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   std::vector<std::uint8_t> steppable;
   if (planes) core::steppableCells(grid, *planes, o.foot, steppable);
   const double rc = std::floor(o.foot.radius() / grid.params.resolution);  // whole cells within the disc
+  // The k-th of the disc's 17 points (8 on its rim, 8 half way, its centre), in cells.
+  const auto discPoint = [&](int k, long& di, long& dj) {
+    const double ang = (k % 8) * M_PI / 4.0, rad = k == 16 ? 0.0 : (k < 8 ? rc : 0.5 * rc);
+    di = std::lround(rad * std::cos(ang));
+    dj = std::lround(rad * std::sin(ang));
+  };
   const auto trulySteppable = [&](long i, long j) {
     Eigen::Matrix<double, 17, 3> A;
     Eigen::Matrix<double, 17, 1> z;
     for (int k = 0; k < 17; ++k) {
-      const double ang = (k % 8) * M_PI / 4.0, rad = k == 16 ? 0.0 : (k < 8 ? rc : 0.5 * rc);
-      const long di = std::lround(rad * std::cos(ang)), dj = std::lround(rad * std::sin(ang));
+      long di, dj;
+      discPoint(k, di, dj);
       const float t = truth.at(i + di, j + dj);
       if (std::isnan(t)) return false;
       A.row(k) << 1.0, static_cast<double>(di), static_cast<double>(dj);
@@ -172,8 +178,9 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
         // Recall over the cells whose foot's disc the map knows (at its 17 points).
         bool seen = true;
         for (int k = 0; k < 17 && seen; ++k) {
-          const double ang = (k % 8) * M_PI / 4.0, rad = k == 16 ? 0.0 : (k < 8 ? rc : 0.5 * rc);
-          const long x = ix + std::lround(rad * std::cos(ang)), y = iy + std::lround(rad * std::sin(ang));
+          long di, dj;
+          discPoint(k, di, dj);
+          const long x = ix + di, y = iy + dj;
           seen = x >= 0 && y >= 0 && x < hp.width && y < hp.height &&
                  std::isfinite(grid.heights[grid.index(static_cast<int>(x), static_cast<int>(y))]);
         }
