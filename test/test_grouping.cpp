@@ -391,6 +391,13 @@ TEST(Grouping, PlanesThatDoNotMeetKeepTheirPolygons) {
     EXPECT_NEAR(minCoord(planes[1].boundary, 2), 0.155, 1e-9);
     EXPECT_NEAR(planes[0].area, 1.0 + 1.0 * 0.055, 1e-9);
   }
+  {  // a wall 2 cm inside the tread's end: the tread's corners past it come back to 5 mm before it
+    std::vector<Plane> planes{tread, wall(1.28, -0.5, 0.5)};
+    closeCreases(planes, 0.08, 0.005, 15.0);
+    EXPECT_NEAR(maxCoord(planes[0].boundary, 0), 1.275, 1e-9);
+    EXPECT_NEAR(minCoord(planes[0].boundary, 0), 1.0, 1e-9);
+    EXPECT_NEAR(planes[0].area, 1.0 - 1.0 * 0.025, 1e-9);
+  }
   const double a = 10.0 * M_PI / 180.0;
   const Plane ramp = plane({-std::sin(a), 0, std::cos(a)}, {{1.31, -0.5, 0.15}, {1.31, 0.5, 0.15},
                                                             {1.6, 0.5, 0.15 + 0.29 * std::tan(a)},

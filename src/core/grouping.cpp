@@ -997,7 +997,8 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
         const std::vector<Eigen::Vector3d>& ring = planes[k].boundary;
         for (std::size_t v = 0; v < ring.size(); ++v) {
           const double dist = own.u.dot(ring[v] - x0), t = d.dot(ring[v] - x0);
-          if (dist > margin && dist <= reach && t >= other.lo - reach && t <= other.hi + reach)
+          // (Corners within the margin on their own side stay.)
+          if ((dist > margin || dist < -1e-9) && std::abs(dist) <= reach && t >= other.lo - reach && t <= other.hi + reach)
             moves.push_back({k, v, ring[v] - (dist - margin) * own.u});
         }
       };

@@ -248,7 +248,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         pieces.back().last = k;
         pieces.back().beam_last = s.last;
       } else {
-        pieces.push_back({s.line, k, k, s.first, s.last, {}, {}, false});
+        pieces.push_back({s.line, k, k, s.first, s.last, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), false});
       }
     }
     // The plane's outline has a corner where each of its lines enters it and

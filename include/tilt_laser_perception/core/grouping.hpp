@@ -104,11 +104,13 @@ Eigen::Vector3d cornerOnPlane(const Eigen::Vector3d& x, const Eigen::Vector3d& o
 /// that no line reaches). Where the polygons of two planes whose normals
 /// differ by more than `min_angle_deg` both come within `reach` of their
 /// common line (or cross it by no more), the corners of each that lie
-/// between `margin` and `reach` from it, beside the stretch of it that the
-/// other reaches, are moved to `margin` from it, within their plane; areas
-/// follow. The margin is the line's own error: a riser crossed by two or
-/// three lines puts it a few millimetres off, and a tread carried past its
-/// nosing would claim the floor in front.
+/// between `margin` and `reach` from it, or past it by no more than `reach`,
+/// beside the stretch of it that the other reaches, are moved to `margin`
+/// from it on their own side, within their plane; areas follow. A corner past the line is an overshoot (a spinning
+/// line crosses a nosing obliquely, and range noise moves its last point
+/// along the line beyond it). The margin is the line's own error: a riser
+/// crossed by two or three lines puts it a few millimetres off, and a tread
+/// carried past its nosing would claim the floor in front.
 void closeCreases(std::vector<Plane>& planes, double reach, double margin, double min_angle_deg);
 
 class ScanLineGrouper {
