@@ -50,3 +50,16 @@ def test_classes_of_the_palettes():
     for i, want in enumerate(("planes", "height map", "height map", "points")):
         frac = check_screenshot.classify(px[:, i:i + 1])
         assert frac[want] == 1.0, (i, frac)
+
+
+def test_the_rviz_config_loads_with_its_displays():
+    # rviz drops a configuration it cannot parse and shows an empty window
+    # (a display name with a colon in it did that): the file is YAML whose
+    # displays are the ones the check counts, on the grouper's topics.
+    import yaml
+    with open(os.path.join(HERE, "..", "rviz", "tilt_laser.rviz")) as f:
+        config = yaml.safe_load(f)
+    displays = config["Visualization Manager"]["Displays"]
+    topics = {d.get("Topic") or d.get("Marker Topic") for d in displays}
+    assert {"height_map_cloud", "plane_markers", "sweep_cloud", "steppable_grid"} <= topics, topics
+    assert all(isinstance(d.get("Name"), str) and isinstance(d.get("Class"), str) for d in displays)
