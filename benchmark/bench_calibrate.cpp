@@ -36,7 +36,7 @@ const Recording& recording() {
     o.on_joint = [&](double t, double q) { r.joints.emplace_back(t, q); };
     o.on_sweep = [&](const core::SweepResult& s) { r.sweeps.push_back(s); };
     sim::evaluateScene(o);
-    r.chain = sim::headChain(sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml"));
+    r.chain = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").chain();
     return r;
   }();
   return rec;

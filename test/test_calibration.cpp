@@ -34,7 +34,7 @@ sim::SceneEvalOptions options(const std::string& scene, int sweeps, std::uint64_
 /// Simulates the sweeps and feeds the calibrator what a recording holds.
 core::CalibrationResult calibrate(sim::SceneEvalOptions o, const core::CalibrationOptions& co = {},
                                   int only_direction = 0) {
-  core::HeadCalibrator cal(sim::headChain(sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml")), co);
+  core::HeadCalibrator cal(sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").chain(), co);
   o.on_joint = [&](double t, double q) { cal.addJoint(t, q); };
   o.on_sweep = [&](const core::SweepResult& sw) {
     const int dir = sw.lines.back().tilt[540] > sw.lines.front().tilt[540] ? 1 : -1;
@@ -137,7 +137,7 @@ TEST(Calibration, TheEstimateAppliedBringsThePlanesBack) {
 TEST(CalibrationWatch, SaysWhenTheHeadWasKnocked) {
   // A head that holds its calibration, and one whose horn slipped 1 degree:
   // a window of 8 sweeps each; the live check reports the second only.
-  const core::TiltChain chain = sim::headChain(sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml"));
+  const core::TiltChain chain = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").chain();
   for (const double slip_deg : {0.0, 1.0}) {
     sim::RigErrors rig;
     rig.joint_offset = slip_deg * kDeg;
@@ -172,7 +172,7 @@ TEST(CalibrationWatch, SaysWhenTheHeadWasKnocked) {
 TEST(CalibrationMonitor, ChecksAStandingHeadOnAThreadAndStartsAgainWhenTheBaseMoves) {
   // The grouper's live check as core gives it: a head whose horn slipped
   // 1 degree, its window solved apart, the verdict taken by poll().
-  const core::TiltChain chain = sim::headChain(sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml"));
+  const core::TiltChain chain = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").chain();
   sim::RigErrors rig;
   rig.joint_offset = 1.0 * kDeg;
   sim::SceneEvalOptions o = options("stairs", 9, 41, rig);

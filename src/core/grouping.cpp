@@ -72,15 +72,10 @@ double stripArea(const std::vector<Eigen::Vector3d>& left, const std::vector<Eig
     return 0.5 * std::abs(cross(b - a, c - a));
   };
   double area = 0.0;
+  Eigen::Vector2d x;
   for (std::size_t k = 0; k + 1 < left.size(); ++k) {
     const Eigen::Vector2d a0 = at(left[k]), b0 = at(right[k]), a1 = at(left[k + 1]), b1 = at(right[k + 1]);
-    // Where chord 0 crosses chord 1, if within both.
-    const Eigen::Vector2d d0 = b0 - a0, d1 = b1 - a1;
-    const double den = cross(d0, d1);
-    const double s = den != 0.0 ? cross(a1 - a0, d1) / den : -1.0;
-    const double t = den != 0.0 ? cross(a1 - a0, d0) / den : -1.0;
-    if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) {
-      const Eigen::Vector2d x = a0 + s * d0;
+    if (chordsCross(a0, b0, a1, b1, x)) {
       area += tri(a0, x, a1) + tri(x, b0, b1);
     } else {
       area += 0.5 * std::abs(cross(b0 - a0, b1 - a0) + cross(b1 - a0, a1 - a0));
@@ -1284,6 +1279,17 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     r.last_line = segs_[r.members.back()].line;
     r.lines = countLines(r.members, spans_);
   }
+}
+
+bool chordsCross(const Eigen::Vector2d& a0, const Eigen::Vector2d& b0, const Eigen::Vector2d& a1,
+                 const Eigen::Vector2d& b1, Eigen::Vector2d& at) {
+  const auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); };
+  const Eigen::Vector2d d0 = b0 - a0, d1 = b1 - a1;
+  const double den = cross(d0, d1);
+  if (den == 0.0) return false;
+  const double u = cross(a1 - a0, d1) / den, w = cross(a1 - a0, d0) / den;
+  at = a0 + u * d0;
+  return u > 0.0 && u < 1.0 && w > 0.0 && w < 1.0;
 }
 
 Eigen::Vector3d cornerOnPlane(const Eigen::Vector3d& x, const Eigen::Vector3d& o, const PlaneFit& f,

@@ -170,17 +170,6 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       for (std::size_t k = 0; k + 1 < xs.size(); k += 2) fillRow(pl, iy, xs[k], xs[k + 1]);
     }
   };
-  const auto cross2 = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); };
-  // Where chord a0-b0 crosses chord a1-b1 within both (false when not).
-  const auto crossing = [&](const Eigen::Vector2d& a0, const Eigen::Vector2d& b0, const Eigen::Vector2d& a1,
-                            const Eigen::Vector2d& b1, Eigen::Vector2d& x) {
-    const Eigen::Vector2d d0 = b0 - a0, d1 = b1 - a1;
-    const double den = cross2(d0, d1);
-    if (den == 0.0) return false;
-    const double u = cross2(a1 - a0, d1) / den, w = cross2(a1 - a0, d0) / den;
-    x = a0 + u * d0;
-    return u > 0.0 && u < 1.0 && w > 0.0 && w < 1.0;
-  };
   std::vector<std::vector<Eigen::Vector2d>> rings;
   // A chain: one segment on each of successive lines, each side by side with
   // the next and with nothing else there: their ends, there and back, bound
@@ -208,6 +197,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     ch.to.clear();
   };
   std::vector<int> mem;
+  const GroupingParams grouping_defaults;  // the shift along a ray a corner may take (cornerOnPlane)
   for (const Plane& pl : sweep.planes) {
     if (!walkable[pl.id]) continue;
     inv_nz = 1.0 / pl.fit.normal.z();
@@ -236,7 +226,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     mem = pl.members;
     std::sort(mem.begin(), mem.end());  // segments come line by line, in beam order
     const auto onPlane = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& origin) {
-      const Eigen::Vector3d q = cornerOnPlane(x, origin, pl.fit, GroupingParams());
+      const Eigen::Vector3d q = cornerOnPlane(x, origin, pl.fit, grouping_defaults);
       return Eigen::Vector2d(q.x(), q.y());
     };
     // Pieces: a line's segments of the plane that follow each other with at
@@ -300,7 +290,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         for (std::size_t j = b; j < c; ++j) {
           if (!side(i, j)) continue;
           const Eigen::Vector2d &a0 = pieces[i].from, &b0 = pieces[i].to, &a1 = pieces[j].from, &b1 = pieces[j].to;
-          const bool crossed = crossing(a0, b0, a1, b1, x);
+          const bool crossed = chordsCross(a0, b0, a1, b1, x);
           if (partners_s[i - a] == 1 && partners_t[j - b] == 1 && !crossed) {
             int& ch = chain_of[i - a];
             if (ch < 0) {

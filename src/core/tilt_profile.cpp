@@ -34,6 +34,21 @@ void TiltProfile::restart() {
   reached_at_ = -1.0;
 }
 
+void TiltProfile::nextSweep(double t, double angle, bool upward, Sweep& done, bool* ended) {
+  if (in_sweep_ && ended) {
+    done.id = next_id_++;
+    done.start_time = sweep_start_t_;
+    done.end_time = t;
+    done.start_angle = sweep_start_angle_;
+    done.end_angle = angle;
+    done.upward = upward;
+    *ended = true;
+  }
+  in_sweep_ = true;
+  sweep_start_t_ = t;
+  sweep_start_angle_ = angle;
+}
+
 bool TiltProfile::updateSpin(double t, double pos, TiltCommand& cmd, Sweep& done, bool* ended) {
   // The goal is kept more than half a turn ahead, so the servo never slows
   // for it; a sweep ends each time the position passes a multiple of the span.
@@ -42,21 +57,7 @@ bool TiltProfile::updateSpin(double t, double pos, TiltCommand& cmd, Sweep& done
     spin_last_ = pos;
   }
   const double k = std::floor(pos / p_.spin_span);
-  if (k > std::floor(spin_last_ / p_.spin_span)) {
-    const double at = k * p_.spin_span;
-    if (in_sweep_ && ended) {
-      done.id = next_id_++;
-      done.start_time = sweep_start_t_;
-      done.end_time = t;
-      done.start_angle = sweep_start_angle_;
-      done.end_angle = at;
-      done.upward = true;
-      *ended = true;
-    }
-    in_sweep_ = true;
-    sweep_start_t_ = t;
-    sweep_start_angle_ = at;
-  }
+  if (k > std::floor(spin_last_ / p_.spin_span)) nextSweep(t, k * p_.spin_span, true, done, ended);
   spin_last_ = pos;
   if (goal_ - pos > M_PI && cmd_sent_) return false;
   goal_ = pos + 2.0 * M_PI;
@@ -89,18 +90,7 @@ bool TiltProfile::update(double t, double pos, TiltCommand& cmd, Sweep& done, bo
   }
   if (at_end) {
     // A reversal: the sweep in progress ends here, the next begins.
-    if (in_sweep_ && ended) {
-      done.id = next_id_++;
-      done.start_time = sweep_start_t_;
-      done.end_time = t;
-      done.start_angle = sweep_start_angle_;
-      done.end_angle = pos;
-      done.upward = up_;
-      *ended = true;
-    }
-    in_sweep_ = true;
-    sweep_start_t_ = t;
-    sweep_start_angle_ = pos;
+    nextSweep(t, pos, up_, done, ended);
     up_ = !up_;
   }
   if (step_mode) {

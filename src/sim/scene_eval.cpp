@@ -18,12 +18,6 @@ namespace sim {
 namespace {
 double cpuNow() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
-}  // namespace
-
-core::TiltChain headChain(const HeadGeometry& g) { return g.chain(); }
-
-namespace {
-
 /// The scene's true heights on the cell lattice of a resolution (cell (i, j)
 /// centred at ((i + 0.5) r, (j + 0.5) r)): the highest surface above the
 /// centre, ray cast once per cell as maps ask for them (kept for the cells
@@ -399,7 +393,7 @@ std::vector<SweepEval> evaluateScene(const SceneEvalOptions& o) {
       pose = walk.odomPose(t);
       return core::SweepAssembler::PoseStatus::Ok;
     };
-  core::SweepAssembler assembler(o.sweep, o.calibration.correct(headChain(head)), base_pose);
+  core::SweepAssembler assembler(o.sweep, o.calibration.correct(head.chain()), base_pose);
   core::ScanSplitter splitter(o.split);
   core::SplitResult split;
   HeadScan hs;

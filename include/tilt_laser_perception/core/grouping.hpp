@@ -98,6 +98,12 @@ struct Plane {
 Eigen::Vector3d cornerOnPlane(const Eigen::Vector3d& x, const Eigen::Vector3d& origin, const PlaneFit& f,
                               const GroupingParams& params);
 
+/// Whether chord a0-b0 crosses chord a1-b1 within both (in a plane's 2D
+/// coordinates), and where (`at`): a spinning head's lines cross where its
+/// axis meets a surface.
+bool chordsCross(const Eigen::Vector2d& a0, const Eigen::Vector2d& b0, const Eigen::Vector2d& a1,
+                 const Eigen::Vector2d& b1, Eigen::Vector2d& at);
+
 /// Two planes that meet are bounded by their common line: a polygon ends at
 /// its last scan line, the surface at the crease, which lies between that
 /// line and the other plane's first (the 2-5 cm of a tread next to its riser

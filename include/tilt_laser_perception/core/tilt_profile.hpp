@@ -74,6 +74,8 @@ class TiltProfile {
   double spin_last_ = 0.0;  // spin: the position at the last update (unwrapped)
   bool cmd_sent_ = false;   // spin: a goal has been sent since the start
   bool updateSpin(double t, double position, TiltCommand& cmd, Sweep& done, bool* ended);
+  /// The sweep in progress (if any) ends at (t, angle) into `done`, the next begins there.
+  void nextSweep(double t, double angle, bool upward, Sweep& done, bool* ended);
   double reached_at_ = -1.0;  // step-and-hold: when the current step was reached
   std::uint32_t next_id_ = 0;
 };

@@ -69,8 +69,6 @@ struct SceneEvalOptions {
   std::function<void(const core::SweepResult&)> on_sweep;
 };
 
-/// The assembler's chain for a head geometry (base_footprint -> tilt joint -> laser).
-core::TiltChain headChain(const HeadGeometry& g);
 
 /// Writes a sweep's planes (PREFIX_planes.csv: one row per plane, then its
 /// boundary vertices) and height map (PREFIX_heightmap.bin: float32 heights,
