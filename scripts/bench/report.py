@@ -238,7 +238,7 @@ class Report:
         rows = []
         synpeb = os.path.join(data, "synpeb", "test_100.pcd")
         if os.path.exists(synpeb):
-            for extra in ([], ["--noise", "auto"]):
+            for extra in ([], ["--noise", "off"]):
                 out = run([self.tool("segment_cloud"), synpeb, "--truth-field", "intensity"] + extra)
                 m = re.search(r"correct=(\d+) over=(\d+) under=(\d+) missed=(\d+) noise=(\d+)", out)
                 t = re.search(r"(\d+) planes; at", out)
@@ -293,7 +293,7 @@ class Report:
                              (f"; {shared} top(s) share a plane" if shared else "; no two tops share a plane")])
                 if not given:
                     self.summary["drc"] = rows[-1][1]
-        self.section("Data from elsewhere", "BIN/segment_cloud CLOUD --truth-field intensity [--noise auto]; "
+        self.section("Data from elsewhere", "BIN/segment_cloud CLOUD --truth-field intensity [--noise off]; "
                      "python3 scripts/import_tilt_bag.py BAG OUT.bag && BIN/group_bag OUT.bag --urdf OUT.urdf --room "
                      "[--reverse] (room_240: --floor-z 0.10); BIN/segment_cloud scan000.3d --surface ceiling:-40,40,-40,40,1.85,2.15 "
                      "--surface floor:-40,40,-40,40,-0.6,-0.3 [--reverse] [--line-sigma-deg 0]; BIN/segment_cloud tilted-steps.pcd "

@@ -445,9 +445,12 @@ double estimateLineSigma(const SweepResult& sweep) {
 double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping) {
   const double k = noise.sigma > 0.0 ? std::clamp(noise.sigma / kDefaultToleranceNoise, 0.2, 1.0) : 1.0;
   split.d_min *= k;
-  split.zeta = std::min(split.zeta, std::max(k * split.zeta, 0.5 * noise.step));
+  const double zeta = std::min(split.zeta, std::max(k * split.zeta, 0.5 * noise.step));
+  // The split leaves a segment's points up to zeta x range off its chord:
+  // the grouping's distance grows with range as the split's does.
+  grouping.dist_ratio = std::max(k * grouping.dist_ratio, zeta);
+  split.zeta = zeta;
   grouping.dist_min *= k;
-  grouping.dist_ratio *= k;
   grouping.centroid_min *= k;
   grouping.centroid_ratio *= k;
   return k;

@@ -117,11 +117,12 @@ static void usage() {
                "  --truth-field NAME  judge the planes against the labels in field NAME (Hoover et al., 80 %%)\n"
                "  --truth-none V      the label value that means no plane (default: every value is a plane)\n"
                "  --out FILE          x y z label (PointXYZL, binary_compressed; --ascii: ascii, for scripts)\n"
-               "  --noise             off (default): the tolerances of the UTM-30LX on the tilting head; SIGMA [m]\n"
-               "                      or auto (estimated from the cloud's own second differences along its rows\n"
-               "                      and its columns): a cloud less noisy than 5 mm is judged by its own noise,\n"
-               "                      the tolerances scaled down to a fifth at most, the split's zeta to half the\n"
-               "                      angle between beams\n"
+               "  --noise             the range noise: auto (default: estimated from the cloud's own second\n"
+               "                      differences along its rows and its columns), SIGMA [m] given, or off (the\n"
+               "                      tolerances of the UTM-30LX on the tilting head); a cloud less noisy than 5 mm\n"
+               "                      is judged by its own noise, the tolerances scaled down to a fifth at most, the\n"
+               "                      split's zeta to half the angle between beams (the grouping's growth with range\n"
+               "                      no less than it)\n"
                "  --line-sigma-deg D|auto  the noise model's line term: each scan line's own pose error (a tilting\n"
                "                      rig's encoder, backlash, timing), which moves a whole line by range x D out of\n"
                "                      its scan plane; auto (default): estimated from the cloud (each line against the\n"
@@ -143,7 +144,7 @@ int main(int argc, char** argv) {
   core::SplitParams split;
   io::TruthField truth;
   double overlap = 0.8;
-  std::string noise = "off";
+  std::string noise = "auto";
   double spacing_deg = core::kOrganizedLineSpacing * 180.0 / M_PI;
   int threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
   Eigen::Vector3d spin_origin = Eigen::Vector3d::Constant(std::nan("")), spin_axis = spin_origin;

@@ -114,8 +114,10 @@ constexpr double kDefaultToleranceNoise = 0.005;
 /// a noisier one by the defaults. The split must also hold a line's own bend
 /// between its points (a row of equal elevation crosses a plane along a
 /// curve, not a line): its zeta stays at least half the angle between
-/// neighbouring beams (its threshold half their spacing), and no tolerance
-/// falls under a fifth of its default (6 mm). Without these two, noise-free
+/// neighbouring beams (its threshold half their spacing), the grouping's
+/// growth with range (dist_ratio) no less than that zeta (a segment's points
+/// lie up to zeta x range off its chord), and no tolerance falls under a
+/// fifth of its default (6 mm). Without these two, noise-free
 /// range images of the simulator's scenes lost faces (scripts/bench/noise_table.sh;
 /// doc/other_rigs.md). sigma <= 0: unchanged. Returns k.
 double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping);
