@@ -111,6 +111,55 @@ TEST_P(ServoDriverTest, JointStatesFollowTheTrueTiltAt200Hz) {
   (void)t0;
 }
 
+// A spinning head: the servo in wheel mode (1.0: CW and CCW Angle Limit 0)
+// or velocity control (2.0: Operating Mode 1) at the profile's speed, the
+// joint angle counted on past each turn (1.0 reports one turn), a sweep each
+// half turn. A servo left in wheel mode by it and started again nodding is
+// put back in joint / position mode.
+TEST_P(ServoDriverTest, SpinsAtTheProfilesSpeedAndCountsTheTurns) {
+  EmulatedServo es(proto(), "");
+  sim::ServoModel& servo = es.servo;
+  Recorder rec;
+  driver::ServoDriverOptions o = options(proto(), es.emu.devicePath());
+  o.profile.mode = core::TiltProfileParams::Mode::Spin;
+  o.profile.speed = 4.0;  // rad/s: more than a turn in the test's time
+  driver::ServoDriver drv(o, rec.joint(), rec.sweep(), rec.log());
+  drv.start();
+  std::this_thread::sleep_for(3000ms);
+  drv.stop();
+  {
+    std::lock_guard<std::mutex> l(rec.m);
+    ASSERT_GT(rec.joints.size(), 300u);
+    // Against the true angle turned through (the model's is unwrapped): within
+    // the encoder's step, less the start's offset of whole turns (none here).
+    double max_err = 0.0;
+    for (const auto& j : rec.joints) max_err = std::max(max_err, std::abs(j.position - servo.positionAt(j.stamp)));
+    const double turned = rec.joints.back().position - rec.joints.front().position;
+    std::printf("protocol %d spinning: turned %.2f rad, max error %.3f deg, %zu sweeps\n", GetParam(), turned,
+                max_err * 180 / M_PI, rec.sweeps.size());
+    EXPECT_LT(max_err * 180.0 / M_PI, 0.2);
+    EXPECT_GT(turned, 2.0 * M_PI + 1.0);  // past a turn: counted, not wrapped
+    EXPECT_NEAR(rec.joints.back().velocity, 4.0, 0.1);
+    // A sweep each half turn, cut where the angle passes a multiple of pi.
+    ASSERT_GE(rec.sweeps.size(), 2u);
+    for (const auto& sw : rec.sweeps) {
+      EXPECT_TRUE(sw.second);
+      EXPECT_NEAR(std::remainder(sw.first.end_angle, M_PI), 0.0, 1e-9);
+      EXPECT_NEAR(sw.first.end_angle - sw.first.start_angle, M_PI, 1e-9);
+    }
+  }
+  // Nodding again on the same servo: back in joint / position mode, within the tilt range.
+  Recorder nod;
+  driver::ServoDriver again(options(proto(), es.emu.devicePath()), nod.joint(), nod.sweep(), nod.log());
+  again.start();
+  std::this_thread::sleep_for(2500ms);
+  again.stop();
+  std::lock_guard<std::mutex> l(nod.m);
+  ASSERT_GT(nod.joints.size(), 100u);
+  const double last = servo.positionAt(nod.joints.back().stamp);
+  EXPECT_NEAR(std::remainder(last - 0.45, 2.0 * M_PI), 0.0, 0.3);  // within the 0.2..0.7 range (modulo the turns made)
+}
+
 TEST_P(ServoDriverTest, RecoversFromEveryServoFault) {
   const std::string link =
       ::testing::TempDir() + "/tlp_drv_" + std::to_string(GetParam()) + "_" + std::to_string(::getpid());

@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "tilt_laser_perception/scip/client.hpp"  // wallNow()
 
@@ -167,6 +168,17 @@ bool ServoDriver::readLimits() {
   const auto& tab = dynamixel::mx64Table(opt_.protocol);
   std::uint8_t e = 0;
   std::uint32_t lo = 0, hi = 4095;
+  if (spinning()) {
+    // Turning without end: 1.0's wheel mode (CW and CCW Angle Limit 0), 2.0's
+    // velocity control (Operating Mode 1); no position limits apply.
+    {
+      std::lock_guard<std::mutex> l(status_mutex_);
+      status_.limit_min = -std::numeric_limits<double>::infinity();
+      status_.limit_max = std::numeric_limits<double>::infinity();
+    }
+    return v1 ? writeChecked(tab.cw_angle_limit, 0) && writeChecked(tab.ccw_angle_limit, 0)
+              : writeChecked(tab.operating_mode, 1);
+  }
   if (v1) {
     // Joint mode: the goal within CW..CCW Angle Limit. Both 0 is wheel mode
     // (no position control), both 4095 multi-turn: the tilt needs joint mode.
@@ -249,21 +261,41 @@ dynamixel::TxResult ServoDriver::readState(JointSample& s, std::uint8_t& error_b
   s.round_trip = t1 - t0;
   if (v1) {
     const double pos = dynamixel::positionToRad(static_cast<std::int32_t>(dynamixel::getLE(d.data(), 2)));
-    s.position = toJoint(pos);
+    s.position = toJoint(unwrapped(pos));
     s.velocity = opt_.direction * dynamixel::velocityToRadPerSec(opt_.protocol, dynamixel::getLE(d.data() + 2, 2));
     s.effort = opt_.direction * dynamixel::loadToFraction(dynamixel::getLE(d.data() + 4, 2));
   } else {
     s.effort = opt_.direction * dynamixel::currentToAmp(opt_.protocol, dynamixel::getLE(d.data(), 2));
     s.velocity = opt_.direction * dynamixel::velocityToRadPerSec(opt_.protocol, dynamixel::getLE(d.data() + 2, 4));
     const auto raw = static_cast<std::int32_t>(dynamixel::getLE(d.data() + 6, 4));
-    s.position = toJoint(dynamixel::positionToRad(raw));
+    s.position = toJoint(unwrapped(dynamixel::positionToRad(raw)));
   }
   return TxResult::Ok;
+}
+
+double ServoDriver::unwrapped(double servo_rad) {
+  // Spinning, 1.0 reports the angle within one turn: the turns are counted
+  // here (reads come far faster than half a turn); 2.0's velocity control
+  // counts them itself, and this leaves its angle as it is.
+  if (!spinning()) return servo_rad;
+  if (have_spin_angle_) spin_angle_ += std::remainder(servo_rad - last_servo_rad_, 2.0 * M_PI);
+  else spin_angle_ = servo_rad;
+  have_spin_angle_ = true;
+  last_servo_rad_ = servo_rad;
+  return spin_angle_;
 }
 
 void ServoDriver::sendCommand(const core::TiltCommand& cmd) {
   const auto& tab = dynamixel::mx64Table(opt_.protocol);
   std::uint8_t e = 0;
+  if (spinning()) {  // velocity control: the speed only, in the joint's direction
+    if (std::abs(cmd.velocity - last_velocity_cmd_) > 1e-9 &&
+        bus_.writeReg(opt_.id, opt_.protocol == Protocol::V1 ? tab.moving_speed : tab.goal_velocity,
+                      dynamixel::radPerSecToGoalVelocity(opt_.protocol, cmd.velocity / opt_.direction), &e, true,
+                      opt_.timeout) == TxResult::Ok)
+      last_velocity_cmd_ = cmd.velocity;
+    return;
+  }
   if (std::abs(cmd.velocity - last_velocity_cmd_) > 1e-9) {
     const dynamixel::Reg& vreg = opt_.protocol == Protocol::V1 ? tab.moving_speed : tab.profile_velocity;
     if (bus_.writeReg(opt_.id, vreg, dynamixel::radPerSecToVelocity(opt_.protocol, cmd.velocity), &e, true,
@@ -427,6 +459,7 @@ void ServoDriver::run() {
           torque == 0) {
         dropSweep("the servo's torque was off");
         bus_.writeReg(opt_.id, tab.torque_enable, 1, &e, true, opt_.timeout);
+        last_velocity_cmd_ = -1.0;  // a spinning servo's speed sent again
         {
           std::lock_guard<std::mutex> l(status_mutex_);
           ++status_.torque_restores;

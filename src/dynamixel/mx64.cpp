@@ -58,6 +58,7 @@ const Mx64Table& mx64Table(Protocol p) {
     t.present_voltage = {144, 2};
     t.present_temperature = {146, 1};
     t.operating_mode = {11, 1};
+    t.goal_velocity = {104, 4};
     t.velocity_limit = {44, 4};
     t.max_position_limit = {48, 4};
     t.min_position_limit = {52, 4};
@@ -225,6 +226,13 @@ std::uint32_t radPerSecToVelocity(Protocol p, double w) {
   const double raw = std::round(std::abs(w) / unit);
   const double max = p == Protocol::V1 ? 1023.0 : 32767.0;
   return static_cast<std::uint32_t>(std::clamp(raw, 1.0, max));
+}
+
+std::uint32_t radPerSecToGoalVelocity(Protocol p, double w) {
+  const double unit = velocityUnitRpm(p) * kRpmToRadPerSec;
+  const auto mag = static_cast<std::uint32_t>(std::min(std::round(std::abs(w) / unit), p == Protocol::V1 ? 1023.0 : 32767.0));
+  if (p == Protocol::V1) return mag | (w < 0.0 ? 0x400u : 0u);
+  return static_cast<std::uint32_t>(w < 0.0 ? -static_cast<std::int32_t>(mag) : static_cast<std::int32_t>(mag));
 }
 
 std::uint32_t radPerSec2ToAcceleration(Protocol p, double a) {

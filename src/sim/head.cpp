@@ -19,7 +19,12 @@ void ServoModel::advance(double t) {
   constexpr double dt_max = 0.001;
   while (t_ < t) {
     const double dt = std::min(dt_max, t - t_);
-    if (torque_) {
+    if (torque_ && velocity_mode_) {
+      // Wheel or velocity control: towards the goal velocity at the acceleration limit.
+      const double dv = std::clamp(wheel_ - vel_, -amax_ * dt, amax_ * dt);
+      pos_ += (vel_ + 0.5 * dv) * dt;
+      vel_ += dv;
+    } else if (torque_) {
       const double d = goal_ - pos_;
       if (std::abs(d) < 1e-6 && std::abs(vel_) < amax_ * dt) {
         pos_ = goal_;
@@ -53,6 +58,23 @@ void ServoModel::setGoal(double t, double goal) {
   std::lock_guard<std::mutex> l(mutex_);
   advance(t);
   goal_ = goal;
+  velocity_mode_ = false;
+}
+
+void ServoModel::setGoalVelocity(double t, double w) {
+  std::lock_guard<std::mutex> l(mutex_);
+  advance(t);
+  wheel_ = std::clamp(w, -kMaxVelocity, kMaxVelocity);
+  velocity_mode_ = true;
+}
+
+void ServoModel::wrapToOneTurn(double t) {
+  std::lock_guard<std::mutex> l(mutex_);
+  advance(t);
+  pos_ = std::remainder(pos_, 2.0 * M_PI);
+  goal_ = pos_;
+  velocity_mode_ = false;
+  history_.assign(1, {t_, pos_});
 }
 
 void ServoModel::setVelocityLimit(double t, double v) {
@@ -72,6 +94,7 @@ void ServoModel::setTorque(double t, bool on) {
   advance(t);
   torque_ = on;
   if (on) goal_ = pos_;
+  if (on) wheel_ = 0.0;
 }
 
 double ServoModel::velocityLimit() const {
@@ -86,7 +109,7 @@ ServoModel::State ServoModel::state(double t) {
   s.position = pos_;
   s.velocity = vel_;
   s.goal = goal_;
-  s.moving = std::abs(vel_) > 1e-3 || (torque_ && std::abs(goal_ - pos_) > 1e-4);
+  s.moving = std::abs(vel_) > 1e-3 || (torque_ && (velocity_mode_ ? wheel_ != 0.0 : std::abs(goal_ - pos_) > 1e-4));
   s.torque = torque_;
   if (t < t_) s.position = historyAt(t);
   return s;

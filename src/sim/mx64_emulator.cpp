@@ -139,7 +139,11 @@ void Mx64Emulator::setHardwareError(std::uint8_t bits) {
 void Mx64Emulator::refresh(double t) {
   const ServoModel::State s = servo_.state(t);
   const bool v1 = options_.protocol == Protocol::V1;
-  set(table_.present_position, static_cast<std::uint32_t>(dynamixel::radToPosition(servo_.reading(t))));
+  std::int32_t raw = dynamixel::radToPosition(servo_.reading(t));
+  // 1.0 reports one turn (0..4095) but in multi-turn mode; 2.0 the position
+  // turned through (its velocity and extended position modes go on past a turn).
+  if (v1 && !(get(table_.cw_angle_limit) == 4095 && get(table_.ccw_angle_limit) == 4095)) raw = ((raw % 4096) + 4096) % 4096;
+  set(table_.present_position, static_cast<std::uint32_t>(raw));
   const double rpm_unit = dynamixel::velocityUnitRpm(options_.protocol) * 2.0 * M_PI / 60.0;
   const long vraw = std::lround(s.velocity / rpm_unit);
   if (v1) {
@@ -263,7 +267,20 @@ void Mx64Emulator::applyWrite(std::uint16_t addr, const std::vector<std::uint8_t
     set(table_.torque_enable, on);
     servo_.setTorque(t, on);
   }
-  if (touched(table_.moving_speed)) {
+  // Velocity control: 1.0's wheel mode (CW and CCW Angle Limit both 0: the
+  // Moving Speed's bit 10 says CW), 2.0's Operating Mode 1 (the Goal Velocity).
+  const bool v1 = p == Protocol::V1;
+  const bool wheel = v1 ? get(table_.cw_angle_limit) == 0 && get(table_.ccw_angle_limit) == 0
+                        : get(table_.operating_mode) == 1;
+  const bool mode_touched = v1 ? touched(table_.cw_angle_limit) || touched(table_.ccw_angle_limit)
+                               : touched(table_.operating_mode);
+  if (wheel && (mode_touched || touched(table_.torque_enable) || touched(v1 ? table_.moving_speed : table_.goal_velocity))) {
+    const std::uint32_t raw = get(v1 ? table_.moving_speed : table_.goal_velocity);
+    servo_.setGoalVelocity(t, get(table_.torque_enable) ? dynamixel::velocityToRadPerSec(p, raw) : 0.0);
+  } else if (!wheel && mode_touched) {
+    servo_.wrapToOneTurn(t);  // position control again: the turns made are forgotten
+  }
+  if (!wheel && touched(table_.moving_speed)) {
     const std::uint32_t v = get(table_.moving_speed) & 0x3FF;
     servo_.setVelocityLimit(t, v == 0 ? 0.0 : dynamixel::velocityToRadPerSec(p, v));
   }
@@ -275,7 +292,7 @@ void Mx64Emulator::applyWrite(std::uint16_t addr, const std::vector<std::uint8_t
     servo_.setAccelerationLimit(t, dynamixel::accelerationToRadPerSec2(p, get(table_.goal_acceleration)));
   if (touched(table_.profile_acceleration))
     servo_.setAccelerationLimit(t, dynamixel::accelerationToRadPerSec2(p, get(table_.profile_acceleration)));
-  if (touched(table_.goal_position) && get(table_.torque_enable))
+  if (touched(table_.goal_position) && get(table_.torque_enable) && !wheel)
     servo_.setGoal(t, dynamixel::positionToRad(static_cast<std::int32_t>(get(table_.goal_position))));
   if (touched(table_.id)) options_.id = static_cast<std::uint8_t>(get(table_.id));
 }

@@ -103,6 +103,9 @@ class ServoDriver {
   void handleHardwareError(std::uint8_t bits, double now);
   void dropSweep(const std::string& why);
   void sleepUntil(double t);
+  bool spinning() const { return opt_.profile.mode == core::TiltProfileParams::Mode::Spin; }
+  /// Spinning: the servo's angle with the turns counted (1.0 reports one turn).
+  double unwrapped(double servo_rad);
   double toJoint(double servo_rad) const { return opt_.direction * servo_rad + opt_.joint_offset; }
   double toServo(double joint) const { return (joint - opt_.joint_offset) / opt_.direction; }
 
@@ -118,6 +121,8 @@ class ServoDriver {
   mutable std::mutex status_mutex_;
   ServoStatus status_;
   double last_velocity_cmd_ = -1.0, hw_error_since_ = -1.0;
+  double spin_angle_ = 0.0, last_servo_rad_ = 0.0;  ///< spinning: the angle turned through, the last reading
+  bool have_spin_angle_ = false;
   std::int32_t goal_min_ = 0, goal_max_ = 4095;  ///< raw goal positions the servo takes (its limits)
   std::uint16_t model_ = 0;
 };

@@ -36,7 +36,7 @@ struct Mx64Table {
       present_voltage, present_temperature, moving, hardware_error /*2.0*/, max_torque /*1.0*/,
       torque_limit /*1.0*/, cw_angle_limit /*1.0*/, ccw_angle_limit /*1.0*/, lock /*1.0*/,
       min_position_limit /*2.0*/, max_position_limit /*2.0*/, velocity_limit /*2.0*/, operating_mode /*2.0*/,
-      registered;
+      goal_velocity /*2.0*/, registered;
   std::uint16_t model = 0;   ///< model number the servo reports
   std::uint16_t size = 0;    ///< bytes of control table (1.0: 74; 2.0: 662, to the last indirect data)
 };
@@ -98,6 +98,9 @@ inline double velocityUnitRpm(Protocol p) { return p == Protocol::V1 ? 0.114 : 0
 double velocityToRadPerSec(Protocol p, std::uint32_t raw);
 /// Speed limit [rad/s] to the raw moving speed (1.0) or profile velocity (2.0), at least 1.
 std::uint32_t radPerSecToVelocity(Protocol p, double rad_per_s);
+/// A signed velocity [rad/s] to the raw goal of velocity control: 1.0's wheel
+/// mode Moving Speed (0..1023, bit 10 = CW = negative), 2.0's Goal Velocity (signed).
+std::uint32_t radPerSecToGoalVelocity(Protocol p, double rad_per_s);
 /// Acceleration [rad/s^2] to raw goal acceleration (1.0, 8.583 deg/s^2 units, 0..254)
 /// or profile acceleration (2.0, 214.577 rev/min^2 units).
 std::uint32_t radPerSec2ToAcceleration(Protocol p, double rad_per_s2);

@@ -41,7 +41,15 @@ class ServoModel {
 
   explicit ServoModel(double initial_position = 0.0, double t0 = 0.0);
 
+  /// Position control: to `goal` (leaves velocity control).
   void setGoal(double t, double goal);
+  /// Velocity control (the MX-64's wheel mode, 2.0's velocity control): turns
+  /// at `w` [rad/s] (within kMaxVelocity, reached at the acceleration limit)
+  /// without end, until setGoal.
+  void setGoalVelocity(double t, double w);
+  /// Back to position control within one turn of the centre, where it stands
+  /// (the turns made in velocity control forgotten, as a servo's encoder does).
+  void wrapToOneTurn(double t);
   /// Velocity limit [rad/s]; <= 0 or above kMaxVelocity means kMaxVelocity.
   void setVelocityLimit(double t, double v);
   /// Acceleration limit [rad/s^2]; <= 0 or inf means 200 rad/s^2 (the motor's own limit).
@@ -66,6 +74,8 @@ class ServoModel {
   mutable std::mutex mutex_;
   double t_, pos_, vel_ = 0.0, goal_, vmax_ = kMaxVelocity, amax_ = 200.0;
   bool torque_ = true;
+  bool velocity_mode_ = false;
+  double wheel_ = 0.0;  // velocity control's goal [rad/s]
   std::deque<std::pair<double, double>> history_;  // (t, position), 1 ms apart
   double reading_sigma_ = 0.0;
   std::mt19937_64 reading_rng_;
