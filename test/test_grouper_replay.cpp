@@ -103,6 +103,21 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
     most_risers = std::max(most_risers, risers);
   }
   EXPECT_GE(most_risers, 3) << "no sweep found three of the four risers";
+  // A spinning head: a sweep each half turn, so planes every pi / speed seconds.
+  double period = 0.0;
+  ros::param::param("~sweep_period", period, period);
+  if (period > 0.0) {
+    ASSERT_GE(planes.size(), 3u);
+    std::vector<double> gaps;
+    for (std::size_t i = 1; i < planes.size(); ++i)
+      gaps.push_back((planes[i].header.stamp - planes[i - 1].header.stamp).toSec());
+    std::sort(gaps.begin(), gaps.end());
+    std::printf("planes every %.3f s (median; shortest %.3f, longest %.3f), a half turn %.3f s\n", gaps[gaps.size() / 2],
+                gaps.front(), gaps.back(), period);
+    EXPECT_NEAR(gaps[gaps.size() / 2], period, 0.05 * period);
+    EXPECT_NEAR(gaps.front(), period, 0.1 * period);
+    EXPECT_NEAR(gaps.back(), period, 0.1 * period);
+  }
   for (int k = 0; k < 4; ++k) EXPECT_GE(tread_seen[k], 1) << "tread " << k + 1 << " never found within 1 cm";
   for (const HeightMap& map : maps) {
     EXPECT_NEAR(map.info.resolution, 0.01, 1e-6);

@@ -57,6 +57,11 @@ TEST(InputCheck, JointPositionsMustBeFiniteAngles) {
   EXPECT_NE(checkJointPosition(kNan), nullptr);
   EXPECT_NE(checkJointPosition(std::numeric_limits<double>::infinity()), nullptr);
   EXPECT_NE(checkJointPosition(7.0), nullptr);
+  // A continuous (spinning) joint turns on: 60 rad is ten turns, not absurd.
+  EXPECT_EQ(checkJointPosition(61.7, true), nullptr);
+  EXPECT_EQ(checkJointPosition(-61.7, true), nullptr);
+  EXPECT_NE(checkJointPosition(kNan, true), nullptr);
+  EXPECT_NE(checkJointPosition(2e7, true), nullptr);
 }
 
 TEST(InputCheck, ScansBeyondTheBoundsOrWithBadTimesAreRefused) {

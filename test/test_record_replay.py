@@ -79,23 +79,23 @@ def same_planes(a, b):
     return ""
 
 
-def test_replayed_planes_equal_the_live_ones():
+def record_and_replay(live_seconds, min_compared, live_args=(), replay_args=()):
     work = tempfile.mkdtemp(prefix="tlp_record_replay_")
     port = 12000 + random.randrange(2000)
     with open(os.path.join(work, "live.log"), "w") as log:
         live = roslaunch(port, "sim.launch", f"port:={port + 3000}", f"servo_link:={work}/servo", "record:=true",
-                         "record_outputs:=true", f"bag_prefix:={work}/live", log=log)
+                         "record_outputs:=true", f"bag_prefix:={work}/live", *live_args, log=log)
         try:
-            time.sleep(LIVE_SECONDS)
+            time.sleep(live_seconds)
         finally:
             stop(live)
     bags = glob.glob(os.path.join(work, "live_*.bag"))
     assert len(bags) == 1, f"no recording in {work}: {os.listdir(work)}"
     live_planes = planes_by_stamp(bags[0], "/planes")
-    assert len(live_planes) >= 10, f"only {len(live_planes)} live sweeps recorded"
+    assert len(live_planes) >= min_compared + 3, f"only {len(live_planes)} live sweeps recorded"
 
     with open(os.path.join(work, "replay.log"), "w") as log:
-        replay_recorded(port + 1, bags[0], os.path.join(work, "replay.bag"), ["/planes"], log)
+        replay_recorded(port + 1, bags[0], os.path.join(work, "replay.bag"), ["/planes"], log, *replay_args)
     replayed = planes_by_stamp(os.path.join(work, "replay.bag"), "/planes")
     common = sorted(set(live_planes) & set(replayed))
     # The recording began after the first live sweep had, and it stopped
@@ -105,9 +105,18 @@ def test_replayed_planes_equal_the_live_ones():
     # earlier sweep equal). Compare the sweeps in between.
     compared = common[1:-1]
     print(f"live sweeps {len(live_planes)}, replayed {len(replayed)}, compared {len(compared)}")
-    assert len(compared) >= 7, f"live {len(live_planes)}, replayed {len(replayed)}, common {len(common)}"
+    assert len(compared) >= min_compared, f"live {len(live_planes)}, replayed {len(replayed)}, common {len(common)}"
     # every replayed sweep after the first has its live twin
     assert len(replayed) - len(common) <= 1, "replayed sweeps with no live twin"
     diffs = {t: same_planes(live_planes[t], replayed[t]) for t in compared}
     bad = {t: d for t, d in diffs.items() if d}
     assert not bad, f"{len(bad)} of {len(compared)} sweeps differ: {bad}"
+
+
+def test_replayed_planes_equal_the_live_ones():
+    record_and_replay(LIVE_SECONDS, 7)
+
+
+def test_a_spinning_heads_replayed_planes_equal_the_live_ones():
+    # A sweep each half turn at 1 rad/s (3.1 s): about 8 in 30 s after the head's start.
+    record_and_replay(30.0, 4, ["spin:=1.0"], ["spin:=true"])

@@ -16,8 +16,9 @@ const char* checkStamp(double stamp, double now, const StampLimits& limits) {
   return nullptr;
 }
 
-const char* checkJointPosition(double q) {
+const char* checkJointPosition(double q, bool continuous) {
   if (!std::isfinite(q)) return "joint position not finite";
+  if (continuous) return std::abs(q) > kMaxContinuousJointAngle ? "continuous joint position beyond +-1e7 rad" : nullptr;
   if (std::abs(q) > kMaxJointAngle) return "joint position beyond +-2 pi";
   return nullptr;
 }

@@ -52,6 +52,7 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
     Eigen::Isometry3d origin;
     Eigen::Vector3d axis;
     bool prismatic = false;
+    bool continuous = false;  // turns without end (a spinning head): any finite angle
     ros::Time last;  // stamp last published
   };
 
@@ -101,6 +102,7 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
         m.origin = origin;
         m.axis = Eigen::Vector3d(joint->axis.x, joint->axis.y, joint->axis.z).normalized();
         m.prismatic = joint->type == urdf::Joint::PRISMATIC;
+        m.continuous = joint->type == urdf::Joint::CONTINUOUS;
         moving_[name] = m;
       }
     }
@@ -235,7 +237,7 @@ class HeadStatePublisherNodelet : public nodelet::Nodelet {
       const double wall = ros::WallTime::now().toSec();
       for (std::size_t i = 0; i < js.name.size(); ++i) {
         const auto it = moving_.find(js.name[i]);
-        if (it == moving_.end() || !health_.acceptJointPosition(js, i)) continue;
+        if (it == moving_.end() || !health_.acceptJointPosition(js, i, it->second.continuous)) continue;
         // A held joint is given only by a position that can be followed (a
         // NaN one would stop the hold and leave tf without it).
         for (Held& h : held_)

@@ -60,8 +60,8 @@ bool InputHealth::acceptJointState(const sensor_msgs::JointState& js, const core
   return true;
 }
 
-bool InputHealth::acceptJointPosition(const sensor_msgs::JointState& js, std::size_t i) {
-  if (const char* bad = core::checkJointPosition(js.position[i])) {
+bool InputHealth::acceptJointPosition(const sensor_msgs::JointState& js, std::size_t i, bool continuous) {
+  if (const char* bad = core::checkJointPosition(js.position[i], continuous)) {
     refuse(std::string("joint_states: ") + bad, js.name[i] + " " + std::to_string(js.position[i]));
     return false;
   }

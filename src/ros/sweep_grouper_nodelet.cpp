@@ -53,6 +53,7 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("line_sigma_deg", line_sigma_deg, line_sigma_deg);
   g.line_sigma = line_sigma_deg * M_PI / 180.0;
   pnh.param("reversal_hysteresis", sweep_params_.reversal_hysteresis, sweep_params_.reversal_hysteresis);
+  pnh.param("spin_span", sweep_params_.spin_span, sweep_params_.spin_span);
   pnh.param("max_joint_gap", sweep_params_.max_joint_gap, sweep_params_.max_joint_gap);
   pnh.param("max_wait", sweep_params_.max_wait, sweep_params_.max_wait);
   pnh.param("min_sweep_lines", sweep_params_.min_lines, sweep_params_.min_lines);
@@ -322,7 +323,7 @@ void SweepGrouperNodelet::addJoint(const sensor_msgs::JointState& js) {
   const auto it = std::find(js.name.begin(), js.name.end(), joint_name_);
   if (it == js.name.end() || !health_.acceptJointState(js, stamp_limits_)) return;
   const std::size_t i = it - js.name.begin();
-  if (!health_.acceptJointPosition(js, i)) return;
+  if (!health_.acceptJointPosition(js, i, sweep_params_.spin_span > 0.0)) return;  // a spinning joint turns on
   const double t = js.header.stamp.toSec();
   assembler_->addJoint(t, js.position[i]);
   if (calibration_) calibration_->addJoint(t, js.position[i]);

@@ -131,8 +131,12 @@ void TiltLaserDriverNodelet::onInit() {
   pnh.param("enable_servo", enable_servo, true);
 
   // Validation, with a clear message; a bad value falls back to its default.
-  so.profile.mode = mode == "step_hold" ? core::TiltProfileParams::Mode::StepHold : core::TiltProfileParams::Mode::Sweep;
-  if (mode != "sweep" && mode != "step_hold") NODELET_ERROR("~tilt_mode must be 'sweep' or 'step_hold', got '%s': using sweep", mode.c_str());
+  pnh.param("spin_span", so.profile.spin_span, so.profile.spin_span);
+  so.profile.mode = mode == "step_hold" ? core::TiltProfileParams::Mode::StepHold
+                    : mode == "spin"    ? core::TiltProfileParams::Mode::Spin
+                                        : core::TiltProfileParams::Mode::Sweep;
+  if (mode != "sweep" && mode != "step_hold" && mode != "spin")
+    NODELET_ERROR("~tilt_mode must be 'sweep', 'step_hold' or 'spin', got '%s': using sweep", mode.c_str());
   const std::string problem = so.profile.validate();
   if (!problem.empty()) {
     NODELET_ERROR("invalid tilt profile (%s): using the defaults", problem.c_str());

@@ -29,9 +29,15 @@ const char* checkStamp(double stamp, double now, const StampLimits& limits);
 
 /// Largest joint angle a tilt joint can report [rad] (a revolute joint of a head; absurd beyond).
 constexpr double kMaxJointAngle = 6.283185307179586;
+/// Largest angle a continuous (spinning) joint may have turned through [rad]:
+/// 1e7 rad is 17 days at the MX-64's full speed; beyond, a double's step at
+/// that angle (2e-9 rad) still resolves a beam, but a reading so far is absurd.
+constexpr double kMaxContinuousJointAngle = 1e7;
 
-/// Why a joint sample is refused: nullptr when its position is finite and within kMaxJointAngle.
-const char* checkJointPosition(double q);
+/// Why a joint sample is refused: nullptr when its position is finite and
+/// within kMaxJointAngle (a continuous joint, which turns on without end:
+/// kMaxContinuousJointAngle).
+const char* checkJointPosition(double q, bool continuous = false);
 
 /// Events counted over a sliding window of whole seconds, and in total.
 class WindowCounter {

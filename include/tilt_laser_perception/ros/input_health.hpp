@@ -38,7 +38,7 @@ class InputHealth {
   /// and positions pair up, the stamp is set and near the clock. False: refused (counted).
   bool acceptJointState(const sensor_msgs::JointState& js, const core::StampLimits& limits);
   /// One joint's position is a real angle (core::checkJointPosition). False: refused (counted).
-  bool acceptJointPosition(const sensor_msgs::JointState& js, std::size_t i);
+  bool acceptJointPosition(const sensor_msgs::JointState& js, std::size_t i, bool continuous = false);
   /// Scan lines lost upstream, counted per publisher (a second publisher on
   /// the topic numbers its own messages); returns how many were missed.
   unsigned long sequence(const std::string& publisher, std::uint32_t seq);
