@@ -5,7 +5,7 @@
 # then starts the emulated head on the stairs scene with the whole pipeline
 # (sim.launch), listens to a few sweeps and takes an rviz screenshot under Xvfb.
 # Leaves results/: summary.txt, heightmap.png (live height map and plane
-# outlines), rviz.png, split.png and the CSVs.
+# outlines), heightmap_spin.png (a spinning head's), rviz.png, split.png and the CSVs.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$here/scripts/setup.sh"
@@ -55,6 +55,10 @@ echo "== The same walk with every line of a sweep put at the pose of the sweep's
 "$bin/evaluate" --scene stairs --sweeps 8 --walk 0.3 --start -1.5,0 --no-pose | tail -1 | tee "$out/evaluate_walk_no_pose.txt"
 python3 "$here/scripts/dev/plot_heightmap.py" "$out/walk_fused" "$out/heightmap_walk_fused.png"
 python3 "$here/scripts/dev/plot_heightmap.py" "$out/walk" "$out/heightmap_walk_sweep.png"
+echo
+echo "== A spinning head (config/head_spin.yaml: the spindle 30 deg down, 1 rad/s, a sweep each half turn) on the stairs"
+"$bin/evaluate" --scene stairs --sweeps 4 --spin 1.0 --dump "$out/spin" | tee "$out/evaluate_spin.csv"
+python3 "$here/scripts/dev/plot_heightmap.py" "$out/spin" "$out/heightmap_spin.png"
 echo
 # Another rig's real recording (../shared/data, when it is there): imported, then grouped offline.
 rig_bag="$here/../shared/data/real/tilting_lidar_scanner/room_240.bag"
@@ -120,6 +124,9 @@ python3 "$here/scripts/dev/plot_heightmap.py" "$out/live" "$out/heightmap.png"
   echo "With every line at the pose of the sweep's end (--no-pose):"
   cat "$out/evaluate_walk_no_pose.txt"
   echo
+  echo "== A spinning head on the stairs (evaluate --spin 1.0; the means of 4 sweeps):"
+  tail -1 "$out/evaluate_spin.csv"
+  echo
   echo "== Another rig's recording (import_tilt_bag.py, group_bag):"
   cat "$out/room_240.txt"
   echo
@@ -127,7 +134,7 @@ python3 "$here/scripts/dev/plot_heightmap.py" "$out/live" "$out/heightmap.png"
   for p in heightmap.png:"the live height map and plane outlines" rviz.png:"rviz on the emulated head" \
            split.png:"Figure 3 and a split scan" heightmap_evaluate.png:"the height map of evaluated sweeps" \
            room_240.png:"another rig's recording (room_240)" heightmap_walk_fused.png:"a walk: the fused map" \
-           heightmap_walk_sweep.png:"a walk: the last sweep's own map"; do
+           heightmap_walk_sweep.png:"a walk: the last sweep's own map" heightmap_spin.png:"a spinning head's map"; do
     if [ -s "$out/${p%%:*}" ]; then echo "  $out/${p%%:*}: ${p#*:}"; fi
   done
 } > "$out/summary.txt"
