@@ -215,3 +215,27 @@ def test_cardboard_box_gives_its_four_faces(tmp_path):
     assert sum(1 for n in normals if abs(n[1]) > math.cos(math.radians(12))) == 2, grouped
     w = re.search(r"largest wall \(normal \d+ deg, [-\d.]+ m\): (\d+) points, ([\d.]+) % in plane", first)
     assert w and float(w.group(2)) >= 90.0, grouped
+
+
+def test_a_spinning_heads_recording_grouped_each_half_turn(tmp_path):
+    # make_scene_bag --spin: the stairs seen by the spinning head (config/head_spin.yaml, head_spin_joint of
+    # urdf/hrp4_head_spin.urdf) at 1 rad/s for 10 s; group_bag --spin-span pi cuts a sweep each half turn:
+    # 125 lines of 40 Hz scans, the floor one plane at z = 0 and a tread at its height (0.15 m a step).
+    bag = str(tmp_path / "spin.bag")
+    run(os.path.join(BIN, "make_scene_bag"), "--scene", "stairs", "--out", bag, "--duration", "10", "--spin", "1.0")
+    urdf = os.path.join(ROOT, "urdf", "hrp4_head_spin.urdf")
+    out = run(os.path.join(BIN, "group_bag"), bag, "--urdf", urdf, "--joint", "head_spin_joint", "--spin-span",
+              str(math.pi))
+    sweeps = re.findall(r"sweep (\d+): (\d+) lines, (\d+) planes", out)
+    assert len(sweeps) >= 2, out
+    for _, lines, planes in sweeps[:2]:  # the last, cut by the recording's end, is shorter
+        assert abs(int(lines) - 125.7) <= 1.5, out
+        assert int(planes) >= 10, out
+    first = out.split("sweep 1:")[0]
+    level = [float(m.group(1)) for m in re.finditer(r"normal \([-\d.]+ [-\d.]+ 1\.000\), offset ([-\d.]+) m", first)]
+    assert any(abs(z) < 0.005 for z in level), first
+    assert any(abs(z - 0.15 * k) < 0.01 for z in level for k in (1, 2, 3, 4)), first
+    # A span beyond a whole turn is refused with the reason.
+    bad = subprocess.run([os.path.join(BIN, "group_bag"), bag, "--urdf", urdf, "--joint", "head_spin_joint",
+                          "--spin-span", "7"], capture_output=True, text=True, timeout=120)
+    assert bad.returncode != 0 and "spin_span" in bad.stderr, bad.stdout + bad.stderr

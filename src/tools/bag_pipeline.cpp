@@ -30,6 +30,7 @@ bool parseBagOption(int argc, char** argv, int& i, BagPipelineOptions& o) {
   else if (a == "--joint") o.joint = argv[++i];
   else if (a == "--laser") o.laser = argv[++i];
   else if (a == "--calibration") o.calibration = readCalibrationYaml(argv[++i]);
+  else if (a == "--spin-span") o.sweep.spin_span = std::atof(argv[++i]);  // a spinning head: a sweep each span [rad]
   else return false;
   return true;
 }
@@ -37,6 +38,10 @@ bool parseBagOption(int argc, char** argv, int& i, BagPipelineOptions& o) {
 bool runBagPipeline(const BagPipelineOptions& o, const std::function<void(double, double)>& on_joint,
                     const std::function<void(const core::SweepResult&)>& on_sweep, BagPipelineResult& result,
                     std::string& error) {
+  if (const std::string bad = o.sweep.validate(); !bad.empty()) {
+    error = "invalid sweep parameters: " + bad;
+    return false;
+  }
   urdf::Model model;
   if (!model.initFile(o.urdf)) {
     error = "cannot read URDF " + o.urdf;

@@ -40,7 +40,8 @@ bool runBagPipeline(const BagPipelineOptions& o, const std::function<void(double
 /// Why a run gave no sweep, in words a user can act on (empty when it gave one).
 std::string noSweepReason(const BagPipelineOptions& o, const BagPipelineResult& r);
 
-/// Parses the options shared by the tools (--urdf --frame --joint --laser --calibration FILE, --reverse) at argv[i];
+/// Parses the options shared by the tools (--urdf --frame --joint --laser --calibration FILE, --spin-span RAD,
+/// --reverse) at argv[i];
 /// false if not one; throws std::runtime_error on a calibration file it cannot read.
 bool parseBagOption(int argc, char** argv, int& i, BagPipelineOptions& o);
 

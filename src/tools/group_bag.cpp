@@ -33,7 +33,9 @@ namespace {
 void usage() {
   std::fprintf(stderr,
                "usage: group_bag BAG --urdf FILE [--frame F] [--joint J] [--laser L] [--calibration FILE] [--dump PREFIX]\n"
-               "                 [--reverse] [--room] [--floor-z Z]\n");
+               "                 [--reverse] [--room] [--floor-z Z] [--spin-span RAD]\n"
+               "  --spin-span RAD: a spinning head's recording (make_scene_bag --spin, hrp4.launch spin:=): a sweep each\n"
+               "                   RAD of the joint (pi: a half turn); with --joint head_spin_joint and its URDF\n");
 }
 
 struct Share {

@@ -26,8 +26,10 @@ namespace {
 void usage() {
   std::fprintf(stderr,
                "usage: make_scene_bag --scene NAME --out BAG [--duration S] [--seed N] [--min-deg D] [--max-deg D]\n"
-               "                      [--speed RAD_PER_S] [--truth] [--head FILE] [--noise datasheet|percent|none]\n"
+               "                      [--speed RAD_PER_S] [--spin RAD_PER_S] [--truth] [--head FILE] [--noise datasheet|percent|none]\n"
                "  defaults: 5 s, seed 1, tilt 10..60 deg at 1 rad/s, no truth\n"
+               "  --spin: a spinning head (config/head_spin.yaml unless --head) turning at this rate, its joint\n"
+               "          head_spin_joint as in urdf/hrp4_head_spin.urdf (replay.launch spin:=true)\n"
                "  walking (--walk ...): the odometry's odom -> base_footprint on /tf at 100 Hz\n"
                "%s%s", sim::rigOptionsUsage(), sim::walkOptionsUsage());
 }
@@ -53,6 +55,7 @@ geometry_msgs::TransformStamped transform(const std::string& parent, const std::
 int main(int argc, char** argv) {
   std::string scene_name, out, head_path;
   double duration = 5.0, min_deg = 10.0, max_deg = 60.0, speed = 1.0;
+  bool spin = false;
   unsigned long seed = 1;
   bool with_truth = false;
   sim::NoiseParams noise;
@@ -74,6 +77,10 @@ int main(int argc, char** argv) {
     else if (a == "--min-deg" && v) min_deg = std::atof(argv[++i]);
     else if (a == "--max-deg" && v) max_deg = std::atof(argv[++i]);
     else if (a == "--speed" && v) speed = std::atof(argv[++i]);
+    else if (a == "--spin" && v) {
+      spin = true;
+      speed = std::atof(argv[++i]);
+    }
     else if (a == "--head" && v) head_path = argv[++i];
     else if (a == "--truth") with_truth = true;
     else if (a == "--noise" && v) {
@@ -87,13 +94,15 @@ int main(int argc, char** argv) {
   try {
     const sim::Scene scene = sim::loadScene(scene_name);
     const sim::HeadGeometry head =
-        sim::HeadGeometry::load(head_path.empty() ? sim::configDirectory() + "/head.yaml" : head_path);
+        sim::HeadGeometry::load(head_path.empty() ? sim::configDirectory() + (spin ? "/head_spin.yaml" : "/head.yaml") : head_path);
+    if (head.spinning != spin) throw std::runtime_error("--head " + head_path + (spin ? " is not" : " is") + " a spinning head");
     const double deg = M_PI / 180.0;
     sim::ServoModel servo(min_deg * deg, 0.0);
     core::TiltProfileParams profile;
     profile.min_angle = min_deg * deg;
     profile.max_angle = max_deg * deg;
     profile.speed = speed;
+    if (spin) profile.mode = core::TiltProfileParams::Mode::Spin;
     sim::SweepController sweep(servo, profile);
     sim::HeadSimulator head_sim(scene, head, servo, noise, seed, sim::LidarModel(), rig);
     const sim::WalkModel walk(scene, walk_params);
@@ -104,14 +113,18 @@ int main(int argc, char** argv) {
     const double epoch = 1700000000.0;
     const auto stamp = [&](double t) { return ros::Time(epoch + t); };
 
-    // Fixed transforms.
+    // Fixed transforms: the joint's parent at the axis, the laser on its child
+    // (the frames and joint of urdf/hrp4_head.urdf or hrp4_head_spin.urdf,
+    // whose joint origin holds the rest of the chain to the joint).
+    const core::TiltChain chain = head.chain();
+    const std::string joint_name = spin ? "head_spin_joint" : "head_tilt_joint";
+    const std::string joint_link = spin ? "head_spin_link" : "head_tilt_link";
     tf2_msgs::TFMessage statics;
     Eigen::Isometry3d axis = Eigen::Isometry3d::Identity();
     axis.translation() = head.axis_origin;
-    Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
-    offset.translation() = head.laser_offset;
+    const Eigen::Isometry3d joint_origin = axis.inverse() * chain.base_to_joint;
     statics.transforms.push_back(transform("base_footprint", "head_tilt_base", stamp(0), axis));
-    statics.transforms.push_back(transform("head_tilt_link", "laser", stamp(0), offset));
+    statics.transforms.push_back(transform(joint_link, "laser", stamp(0), chain.joint_to_laser));
     bag.write("/tf_static", stamp(0), statics);
 
     sim::HeadScan hs;
@@ -129,15 +142,14 @@ int main(int argc, char** argv) {
         sensor_msgs::JointState js;
         js.header.seq = states++;
         js.header.stamp = stamp(t);
-        js.name = {"head_tilt_joint"};
+        js.name = {joint_name};
         js.position = {q};
         js.velocity = {s.velocity};
         js.effort = {0.0};
         bag.write("/joint_states", js.header.stamp, js);
         tf2_msgs::TFMessage tf;
-        Eigen::Isometry3d R = Eigen::Isometry3d::Identity();
-        R.rotate(Eigen::AngleAxisd(q + head.tilt_offset, Eigen::Vector3d::UnitY()));
-        tf.transforms.push_back(transform("head_tilt_base", "head_tilt_link", stamp(t), R));
+        tf.transforms.push_back(transform("head_tilt_base", joint_link, stamp(t),
+                                          joint_origin * Eigen::AngleAxisd(q, chain.axis)));
         // A walking robot's state estimate: where its odometry puts the base.
         if (walk_params.walking()) tf.transforms.push_back(transform("odom", "base_footprint", stamp(t), walk.odomPose(t)));
         bag.write("/tf", stamp(t), tf);
