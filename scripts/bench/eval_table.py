@@ -42,6 +42,7 @@ def summarize(evaluate, seeds, args):
         "rmse_cm": 100 * mean("heightmap_rmse_m"), "fused_rmse_cm": 100 * mean("fused_rmse_m"),
         "walkable_cm": 100 * mean("walkable_rmse_m"), "fused_walkable_cm": 100 * mean("fused_walkable_rmse_m"),
         "invented_pct": 100 * mean("invented"),
+        "overconfident_pct": 100 * mean("fused_overconfident") if "fused_overconfident" in rows[0] else float("nan"),
         "step_precision_pct": 100 * mean("steppable_precision"), "step_recall_pct": 100 * mean("steppable_recall"),
         "front": front("front_coverage"), "fused_front": front("fused_front_coverage"),
         "front_observable": front("front_observable"),

@@ -79,6 +79,9 @@ struct MapScore {
   double walkable_rmse = 0.0;  ///< over the cells of walkable surfaces away from their edges
   double invented = 0.0;       ///< share of the known cells whose true surface the sensor could not see
   double steppable_precision = 0.0, steppable_recall = 0.0;  ///< of the steppable layer (when planes are given)
+  /// Of the walkable cells, the share whose error exceeds twice the sigma the
+  /// map states for them (when it states one): an honest sigma leaves 5 %.
+  double overconfident = 0.0;
 };
 
 /// The map cells (world indices at one resolution) that points fell in, and when.
@@ -98,7 +101,7 @@ std::uint64_t cellKey(long i, long j) {
 MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Eigen::Isometry3d& base,
                   const SceneEvalOptions& o, const HitCells* hits = nullptr, double seen_after = 0.0,
                   const Scene* scene = nullptr, const Eigen::Vector3d* eye = nullptr,
-                  const std::vector<core::Plane>* planes = nullptr) {
+                  const std::vector<core::Plane>* planes = nullptr, const std::vector<float>* sigmas = nullptr) {
   // The steppable layer against the truth: a foot centred on the cell rests
   // on one true plane whatever its yaw when the true heights at its centre
   // and on circles of its radius and half of it (16 points) lie within 5 mm
@@ -134,7 +137,7 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   const Eigen::Vector2d fwd = (base.linear() * Eigen::Vector3d::UnitX()).head<2>().normalized();
   double se = 0.0, se_walk = 0.0;
   int known = 0, expected = 0, front_known = 0, front_expected = 0, front_hit = 0, walk_known = 0;
-  int looked = 0, invented = 0;
+  int looked = 0, invented = 0, beyond_2_sigma = 0;
   const long margin = std::max(1L, std::lround(0.05 / hp.resolution));
   const double rise = margin * hp.resolution * std::tan(hp.max_slope_deg * M_PI / 180.0);
   for (int iy = 0; iy < hp.height; ++iy)
@@ -167,6 +170,7 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
       if (walkable) {
         ++walk_known;
         se_walk += (h - t) * (h - t);
+        if (sigmas) beyond_2_sigma += !(std::abs(h - t) <= 2.0 * (*sigmas)[grid.index(ix, iy)]);
       }
       if (!steppable.empty() && ix % 2 == 0 && iy % 2 == 0) {  // one cell in four
         // Recall over the cells whose foot's disc the map knows (at its 17 points).
@@ -195,6 +199,7 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   MapScore m;
   m.rmse = known ? std::sqrt(se / known) : 0.0;
   m.walkable_rmse = walk_known ? std::sqrt(se_walk / walk_known) : 0.0;
+  m.overconfident = walk_known ? static_cast<double>(beyond_2_sigma) / walk_known : 0.0;
   m.invented = looked ? static_cast<double>(invented) / looked : 0.0;
   m.steppable_precision = map_step ? static_cast<double>(both) / map_step : 1.0;
   m.steppable_recall = true_step ? static_cast<double>(both) / true_step : 1.0;
@@ -354,9 +359,13 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   for (const core::SweepLine& line : sw.lines)
     for (const Eigen::Vector3f& q : line.points)
       if (q.allFinite()) hits[cellKey(std::lround(std::floor(q.x() / fr)), std::lround(std::floor(q.y() / fr)))] = sw.end;
-  const MapScore f = scoreMap(fused.grid(), truth_fused, base, o, &hits, sw.end - o.fused.forget_time);
+  std::vector<float> sigmas, ages;
+  fused.uncertainty(sw.end, travelled, sigmas, ages);
+  const MapScore f = scoreMap(fused.grid(), truth_fused, base, o, &hits, sw.end - o.fused.forget_time, nullptr,
+                              nullptr, nullptr, &sigmas);
   e.fused_rmse_m = f.rmse;
   e.fused_walkable_rmse_m = f.walkable_rmse;
+  e.fused_overconfident = f.overconfident;
   e.fused_coverage = f.coverage;
   e.fused_front_coverage = f.front;
   e.front_observable = f.front_observable;
@@ -503,20 +512,20 @@ std::string evalCsvHeader() {
          "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
          "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m,mixed_pixels,"
          "mixed_in_segments,front_observable,walkable_rmse_m,fused_walkable_rmse_m,invented,steppable_precision,"
-         "steppable_recall";
+         "steppable_recall,fused_overconfident";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
   char buf[800];
   std::snprintf(buf, sizeof(buf),
                 "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,"
-                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f",
+                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f",
                 sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
                 e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
                 e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
                 e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m,
                 e.mixed_pixels, e.mixed_in_segments, e.front_observable, e.walkable_rmse_m, e.fused_walkable_rmse_m,
-                e.invented, e.steppable_precision, e.steppable_recall);
+                e.invented, e.steppable_precision, e.steppable_recall, e.fused_overconfident);
   return buf;
 }
 
@@ -559,6 +568,7 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     s.heightmap_rmse_m += e.heightmap_rmse_m / n;
     s.walkable_rmse_m += e.walkable_rmse_m / n;
     s.fused_walkable_rmse_m += e.fused_walkable_rmse_m / n;
+    s.fused_overconfident += e.fused_overconfident / n;
     s.invented += e.invented / n;
     s.steppable_precision += e.steppable_precision / n;
     s.steppable_recall += e.steppable_recall / n;
@@ -579,12 +589,12 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
                 "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d front_coverage=%.3f "
                 "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f mixed_pixels=%.1f "
                 "mixed_in_segments=%.1f front_observable=%.3f walkable_rmse_m=%.4f fused_walkable_rmse_m=%.4f "
-                "invented=%.4f steppable_precision=%.4f steppable_recall=%.4f",
+                "invented=%.4f steppable_precision=%.4f steppable_recall=%.4f fused_overconfident=%.4f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
                 s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms, mixed,
                 mixed_in, observable, s.walkable_rmse_m, s.fused_walkable_rmse_m, s.invented, s.steppable_precision,
-                s.steppable_recall);
+                s.steppable_recall, s.fused_overconfident);
   return buf;
 }
 

@@ -89,6 +89,9 @@ struct SweepEval {
   /// true heights 5 cm away along x and y within the walkable slope), of the
   /// sweep's map and of the fused one.
   double walkable_rmse_m = 0.0, fused_walkable_rmse_m = 0.0;
+  /// Of the fused map's walkable cells, the share whose error exceeds twice
+  /// the sigma it states for them (its uncertainty layer): honest, about 5 %.
+  double fused_overconfident = 0.0;
   /// The share of the sweep's known cells whose true surface the sensor could
   /// not see (hidden by something nearer along its ray): cells invented.
   double invented = 0.0;
