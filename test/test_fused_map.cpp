@@ -31,6 +31,7 @@ FusedMapParams fusedParams() {
   FusedMapParams f;
   f.size = 4.0;
   f.forget_time = 10.0;
+  f.sigma_pose = 0.0;  // the head pose's term apart (its own test)
   return f;
 }
 
@@ -115,6 +116,30 @@ TEST(FusedHeightMap, ACellSeenTwiceIsTheMeanByItsVariances) {
   EXPECT_EQ(m.grid().plane_ids[c], 0);
   EXPECT_EQ(m.planes().size(), 1u);
   EXPECT_NEAR(m.planes().at(0).plane.fit.offset, 0.010, 1e-12);  // the newest sweep's plane
+}
+
+// The head's pose error is the same in every sweep: fusing sweeps shrinks
+// the range noise's share of a cell's sigma, not the pose's (d x sigma_pose
+// at the horizontal distance d the cell was seen from).
+TEST(FusedHeightMap, TheHeadPosesShareOfASigmaDoesNotShrinkWithSweeps) {
+  FusedMapParams f = fusedParams();
+  f.drift_per_metre = 0.0;
+  f.sigma_pose = 0.5 * M_PI / 180.0;
+  FusedHeightMap m(cells(), f);
+  m.recentre(0.0, 0.0);
+  SweepResult a;
+  a.planes = {rectangle(0, 1.0, -0.5, 1.9, 0.5, 0.0)};
+  const Eigen::Vector3d eye(0.01, 0.01, 1.4);
+  const std::size_t c = cellAt(m.grid(), 1.51, 0.01);
+  const double d = 1.5, s1 = std::hypot(f.sigma_min, f.sigma_range * std::hypot(d, 1.4)), bias = d * f.sigma_pose;
+  m.addSweep(a, eye, 1.0, 0.0);
+  EXPECT_NEAR(m.sigma(c, 0.0), std::hypot(s1, bias), 2e-4);  // 13.1 mm of pose, 7.8 of range noise
+  for (int k = 2; k <= 10; ++k) m.addSweep(a, eye, k, 0.0);
+  // Ten looks: the range noise's share down to a third (the floor at half sigma_min), the pose's whole.
+  EXPECT_NEAR(m.sigma(c, 0.0), std::hypot(std::max(s1 / std::sqrt(10.0), 0.5 * f.sigma_min), bias), 2e-4);
+  EXPECT_GT(m.sigma(c, 0.0), bias);
+  f.sigma_pose = 0.3;
+  EXPECT_NE(f.validate().find("sigma_pose"), std::string::npos);
 }
 
 TEST(FusedHeightMap, TheNewestSweepWinsWhereTheyDisagree) {

@@ -13,6 +13,7 @@ std::string FusedMapParams::validate() const {
   if (!(forget_time > 0.0)) return "forget_time must be positive";
   if (!(sigma_min > 0.0) || !(sigma_range >= 0.0) || !std::isfinite(sigma_range)) return "sigma_min must be positive, sigma_range not negative";
   if (!(drift_per_metre >= 0.0) || !std::isfinite(drift_per_metre)) return "drift_per_metre must not be negative";
+  if (!(sigma_pose >= 0.0 && sigma_pose < 0.2)) return "sigma_pose must be in [0, 0.2) rad";
   if (!(gate > 0.0)) return "gate must be positive";
   if (!(min_plane_overlap > 0.0 && min_plane_overlap <= 1.0)) return "min_plane_overlap must be in (0, 1]";
   return "";
@@ -59,6 +60,7 @@ void FusedHeightMap::clear() {
   grid_.floor_plane = -1;
   grid_.floor_height = std::numeric_limits<double>::quiet_NaN();
   var_.assign(cells, kNaN);
+  bias_.assign(cells, kNaN);
   seen_.assign(cells, kNaN);
   have_epoch_ = false;
   walked_.assign(cells, 0.0f);
@@ -91,6 +93,7 @@ void FusedHeightMap::recentre(double x, double y) {
   std::vector<float> sf;
   shiftGrid(grid_.heights, w, h, dx, dy, kNaN, sf);
   shiftGrid(var_, w, h, dx, dy, kNaN, sf);
+  shiftGrid(bias_, w, h, dx, dy, kNaN, sf);
   shiftGrid(walked_, w, h, dx, dy, 0.0f, sf);
   std::vector<std::int32_t> si;
   shiftGrid(grid_.plane_ids, w, h, dx, dy, -1, si);
@@ -106,13 +109,14 @@ void FusedHeightMap::forgetCell(std::size_t c) {
   grid_.plane_ids[c] = -1;
   grid_.classes[c] = CellClass::Unknown;
   var_[c] = kNaN;
+  bias_[c] = kNaN;
   seen_[c] = kNaN;
 }
 
 double FusedHeightMap::sigma(std::size_t c, double travelled) const {
   if (std::isnan(grid_.heights[c])) return std::numeric_limits<double>::quiet_NaN();
   const double drift = p_.drift_per_metre * std::max(0.0, travelled - walked_[c]);
-  return std::sqrt(var_[c] + drift * drift);
+  return std::sqrt(var_[c] + bias_[c] * bias_[c] + drift * drift);
 }
 
 double FusedHeightMap::lastSeen(std::size_t c) const { return epoch_ + seen_[c]; }
@@ -126,7 +130,7 @@ void FusedHeightMap::uncertainty(double now, double travelled, std::vector<float
   for (std::size_t c = 0; c < n; ++c) {
     const bool known = !std::isnan(grid_.heights[c]);
     const float d = drift * std::max(0.0f, walked - walked_[c]);
-    sigmas[c] = known ? std::sqrt(var_[c] + d * d) : kNaN;
+    sigmas[c] = known ? std::sqrt(var_[c] + bias_[c] * bias_[c] + d * d) : kNaN;
     ages[c] = known ? t - seen_[c] : kNaN;
   }
 }
@@ -157,6 +161,9 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
     const float dx = (ix + 0.5f) * res - sx, dy = (iy + 0.5f) * res - sy, dz = z - sz;
     return s0 + k2 * (dx * dx + dy * dy + dz * dz);
   };
+  // The head pose's error tilts the whole sweep: d x sigma_pose at a horizontal distance d.
+  const float pose = static_cast<float>(p_.sigma_pose);
+  const auto newBias = [&](int ix, int iy) { return pose * std::hypot((ix + 0.5f) * res - sx, (iy + 0.5f) * res - sy); };
   const float drift = static_cast<float>(p_.drift_per_metre), walked_now = static_cast<float>(travelled);
   const auto oldVariance = [&](std::size_t c) {
     const float d = drift * std::max(0.0f, walked_now - walked_[c]);
@@ -201,17 +208,21 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
       const std::size_t c = row + ix;
       const float hn = sweep_.heights[c];
       if (std::isnan(hn)) continue;
-      const float vn = newVariance(ix, iy, hn), ho = grid_.heights[c];
-      float h = hn, v = vn;
+      const float vn = newVariance(ix, iy, hn), bn = newBias(ix, iy), ho = grid_.heights[c];
+      float h = hn, v = vn, b = bn;
       if (!std::isnan(ho) && grid_.classes[c] == sweep_.classes[c]) {
+        // The gate and the weights by the errors that differ from sweep to
+        // sweep; the pose's share, common to both, carried by the same weights.
         const float vo = oldVariance(c), d = hn - ho;
         if (d * d <= gate2 * (vn + vo)) {
           v = std::max(vo * vn / (vo + vn), sigma_floor2);
           h = (ho * vn + hn * vo) / (vo + vn);
+          b = (bias_[c] * vn + bn * vo) / (vo + vn);
         }
       }
       grid_.heights[c] = h;
       var_[c] = v;
+      bias_[c] = b;
       seen_[c] = now;
       walked_[c] = walked_now;
       grid_.classes[c] = sweep_.classes[c];

@@ -85,6 +85,9 @@ void SweepGrouperNodelet::onInit() {
   pnh.param("map_sigma_min", fp.sigma_min, fp.sigma_min);
   pnh.param("map_sigma_range", fp.sigma_range, fp.sigma_range);
   pnh.param("odom_drift_per_metre", fp.drift_per_metre, fp.drift_per_metre);
+  double sigma_pose_deg = fp.sigma_pose * 180.0 / M_PI;
+  pnh.param("map_sigma_pose_deg", sigma_pose_deg, sigma_pose_deg);
+  fp.sigma_pose = sigma_pose_deg * M_PI / 180.0;
   pnh.param("fusion_gate", fp.gate, fp.gate);
   if (const std::string bad = fp.validate();
       !bad.empty() || fp.size / (fp.resolution > 0.0 ? fp.resolution : map_params_.resolution) > 4000) {

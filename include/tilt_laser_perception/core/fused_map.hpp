@@ -19,6 +19,7 @@
  */
 #pragma once
 
+#include <cmath>
 #include <map>
 #include <vector>
 
@@ -38,6 +39,14 @@ struct FusedMapParams {
   double sigma_min = 0.005;       ///< a cell's height uncertainty seen from up close [m, sigma] ...
   double sigma_range = 0.003;     ///< ... and per metre of range [1] (the two added in quadrature)
   double drift_per_metre = 0.01;  ///< odometry's error per metre walked since a cell was seen [1]
+  /// The head's own pose error common to every sweep (the joint's zero, the
+  /// laser's mount, the time offset: what calibration leaves) [rad, sigma]:
+  /// a cell seen from a horizontal distance d is off by about d x this in
+  /// height in every sweep alike, so fusing sweeps does not shrink it. 0.5
+  /// degrees: a head not calibrated (the simulator's --realistic rig is 0.5
+  /// degrees off in its joint, 0.3 in its mount); calibrate's standard errors
+  /// for one that is.
+  double sigma_pose = 0.5 * M_PI / 180.0;
   double gate = 3.0;              ///< a new height within this many sigmas of the old is fused with it [1]
   double min_plane_overlap = 0.2; ///< a new plane takes an old one's id when this share of its cells agrees with it [1]
   /// Empty when valid, else a message naming the parameter.
@@ -88,7 +97,8 @@ class FusedHeightMap {
   void forgetCell(std::size_t c);
   FusedMapParams p_;
   HeightMapGrid grid_, sweep_;
-  std::vector<float> var_;       ///< height variance when last seen [m^2]
+  std::vector<float> var_;       ///< height variance when last seen [m^2] (what fusing sweeps shrinks)
+  std::vector<float> bias_;      ///< the head pose's share of the height's error [m, sigma] (what it does not)
   std::vector<float> seen_;      ///< when last seen, after epoch_ [s] (float: a millisecond after 4 hours)
   double epoch_ = 0.0;
   bool have_epoch_ = false;
