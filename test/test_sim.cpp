@@ -726,6 +726,32 @@ TEST(SceneEval, TheSameLinesInTheOtherOrderGiveTheSameFaces) {
   }
 }
 
+// What a footstep planner needs of the map, measured on the stairs: the
+// treads' edges where they are (each centimetre of a true edge against where
+// the map's higher surface ends), and the fused map's sigma honest (few
+// walkable cells off by more than twice it, on the ideal rig and on one
+// whose head is 0.5 degrees off in its joint).
+TEST(SceneEval, TheStairsEdgesAreWhereTheyAreAndTheFusedSigmaIsHonest) {
+  sim::SceneEvalOptions o;
+  o.scene = "stairs";
+  o.sweeps = 3;
+  for (const auto& e : sim::evaluateScene(o)) {
+    ASSERT_FALSE(std::isnan(e.step_edge_median_m));
+    EXPECT_LE(e.step_edge_median_m, 0.01);
+    EXPECT_LE(e.step_edge_p95_m, 0.04);
+    EXPECT_LT(e.fused_overconfident, 0.05);
+  }
+  sim::setRealistic(o.rig, o.noise);
+  double beyond = 0.0;
+  for (const auto& e : sim::evaluateScene(o)) beyond += e.fused_overconfident / 3.0;
+  EXPECT_LT(beyond, 0.10);
+  // Its sigma without the head pose's share: most walkable cells beyond twice it.
+  o.fused.sigma_pose = 0.0;
+  beyond = 0.0;
+  for (const auto& e : sim::evaluateScene(o)) beyond += e.fused_overconfident / 3.0;
+  EXPECT_GT(beyond, 0.3);
+}
+
 TEST(SceneEval, EachSweepShowsItsLinesPoseError) {
   // The grouper's diagnostic: the noise model's line term measured on each
   // sweep (core::estimateLineSigma). A real rig's errors (encoder steps,

@@ -43,12 +43,20 @@ def summarize(evaluate, seeds, args):
         "walkable_cm": 100 * mean("walkable_rmse_m"), "fused_walkable_cm": 100 * mean("fused_walkable_rmse_m"),
         "invented_pct": 100 * mean("invented"),
         "overconfident_pct": 100 * mean("fused_overconfident") if "fused_overconfident" in rows[0] else float("nan"),
+        # step edges: the sweeps' medians and 95th percentiles, over the sweeps that saw an edge
+        "edge_median_cm": 100 * nanmean([float(r.get("step_edge_median_m", "nan")) for r in rows]),
+        "edge_p95_cm": 100 * nanmean([float(r.get("step_edge_p95_m", "nan")) for r in rows]),
         "step_precision_pct": 100 * mean("steppable_precision"), "step_recall_pct": 100 * mean("steppable_recall"),
         "front": front("front_coverage"), "fused_front": front("fused_front_coverage"),
         "front_observable": front("front_observable"),
         "veil": mean("veil_segments"), "overhanging": mean("overhanging_segments"),
         "latency_ms": latencies[len(latencies) // 2],
     }
+
+
+def nanmean(values):
+    seen = [v for v in values if v == v]
+    return sum(seen) / len(seen) if seen else float("nan")
 
 
 def main():

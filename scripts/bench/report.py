@@ -68,7 +68,9 @@ class Report:
                 rows.append([name, "realistic" if rig else "ideal",
                              f"{f['correct']:.0f} / {f['true_faces']:.0f} ({100 * f['correct'] / max(f['true_faces'], 1):.1f} %)",
                              f"{f['noise']:.2f}", f"{f['missed']:.2f}", f"{f['normal_err_deg']:.2f}",
-                             f"{f['rmse_cm']:.2f}", f"{f['walkable_cm']:.2f}", f"{f['invented_pct']:.2f}",
+                             f"{f['rmse_cm']:.2f}", f"{f['walkable_cm']:.2f}",
+                             "-" if f['edge_median_cm'] != f['edge_median_cm'] else
+                             f"{f['edge_median_cm']:.1f} / {f['edge_p95_cm']:.1f}", f"{f['invented_pct']:.2f}",
                              f"{f['step_precision_pct']:.1f} / {f['step_recall_pct']:.1f}",
                              f"{f['latency_ms']:.2f}", f"{r['correct']:.0f}, noise {r['noise']:.2f}"])
         s = ",".join(map(str, seeds))
@@ -80,14 +82,18 @@ class Report:
             "doc/simulator.md). Correct faces by Hoover et al.'s criteria at 80 % overlap, summed over the sweeps; "
             "noise and missed: planes a sweep; normal error of the correct faces; the sweep's height map against the "
             "truth, over all its cells and over those of walkable surfaces away from their edges (the true heights "
-            "5 cm away along x and y within the walkable slope of 15 degrees); invented: the share of the map's known "
+            "5 cm away along x and y within the walkable slope of 15 degrees); step edges: each centimetre of a true "
+            "step edge (a rise of 5-20 cm with 3 cm flat on each side, along x or y) against where the map's higher "
+            "surface ends along the same row or column, median and 95th percentile (10: not within 10 cm; -: no "
+            "step edge in view); invented: the share of the map's known "
             "cells whose true surface the sensor could not see (a ray cast to it); steppable: of the cells the map "
             "says a 0.24 x 0.14 m foot of any yaw fits, the share where it truly does (a disc of its radius on one "
             "true plane within 15 degrees), and of those where it truly does (the disc known), the share found; latency: from the sweep's last line to its planes and map (median sweep); lines reversed: "
             "the same sweeps with each sweep's lines grouped last first (`--reverse`: the result should not depend "
             "on the order).\n\n" +
             table(["scene", "rig", "correct faces", "noise", "missed", "normal error [deg]", "height map RMSE [cm]",
-                   "walkable RMSE [cm]", "invented [%]", "steppable: precision / recall [%]", "latency [ms]",
+                   "walkable RMSE [cm]", "step edges: median / p95 [cm]", "invented [%]",
+                   "steppable: precision / recall [%]", "latency [ms]",
                    "lines reversed: correct"], rows))
         st, sr = self.scene_figures[("stairs", False)], self.scene_figures[("stairs", True)]
         self.summary["stairs"] = (f"{100 * st['correct'] / st['true_faces']:.0f} % of the faces, "

@@ -1,9 +1,11 @@
 #include "tilt_laser_perception/sim/scene_eval.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <memory>
 #include <set>
@@ -82,6 +84,9 @@ struct MapScore {
   /// Of the walkable cells, the share whose error exceeds twice the sigma the
   /// map states for them (when it states one): an honest sigma leaves 5 %.
   double overconfident = 0.0;
+  /// Step edges: the distance from each true step edge (a centimetre of it)
+  /// to the map's, median and 95th percentile [m] (NaN: none in view).
+  double edge_median = std::numeric_limits<double>::quiet_NaN(), edge_p95 = edge_median;
 };
 
 /// The map cells (world indices at one resolution) that points fell in, and when.
@@ -196,7 +201,54 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
         invented += dist > 0.05 && scene->raycast(*eye, ray / dist, dist - 0.02, hit);
       }
     }
+  // Step edges. A true step edge: between two cells along x or y the true
+  // height rises by obstacle_min_height to max_step_height, flat for 3 cells
+  // on each side (a tread's nosing over a floor or a lower tread, not a wall's
+  // foot). The map's edge there: the nearest place along the same line
+  // where the higher surface it knows ends towards the lower, within 10 cm
+  // (the distance along x or y: for an edge at an angle, more than across
+  // it); none within 10 cm counts 10 cm.
+  std::vector<double> edge_err;
+  const long reach = std::lround(0.10 / hp.resolution);
+  const auto mapAt = [&](long ix, long iy) {
+    return ix < 0 || iy < 0 || ix >= hp.width || iy >= hp.height
+               ? std::numeric_limits<float>::quiet_NaN()
+               : grid.heights[grid.index(static_cast<int>(ix), static_cast<int>(iy))];
+  };
+  for (int iy = 0; iy < hp.height; ++iy)
+    for (int ix = 0; ix < hp.width; ++ix)
+      for (const auto& [ax, ay] : {std::pair<int, int>{1, 0}, {0, 1}}) {
+        const Eigen::Vector2d d = Eigen::Vector2d(hp.origin_x + (ix + 0.5) * hp.resolution,
+                                                  hp.origin_y + (iy + 0.5) * hp.resolution) - c;
+        if (d.norm() > o.heightmap_radius) continue;
+        const auto t = [&](int k) { return truth.at(i0 + ix + k * ax, j0 + iy + k * ay); };
+        const float a = t(0), b = t(1);
+        const float rise = std::abs(b - a);
+        if (std::isnan(a) || std::isnan(b) || rise < hp.obstacle_min_height || rise > hp.max_step_height) continue;
+        bool flat = true;
+        for (int k = 1; k <= 3 && flat; ++k) flat = std::abs(t(-k) - a) < 0.005f && std::abs(t(1 + k) - b) < 0.005f;
+        if (!flat) continue;
+        // Along the line, where the map's higher surface ends towards the
+        // lower: a cell it knows above the mid height beside one it knows
+        // below it or does not know (a planner keeps its feet where the map
+        // knows the higher surface). The true edge lies between cells 0 and 1.
+        const float mid = 0.5f * (a + b);
+        const int up = b > a ? 1 : 0;  // which of a boundary's two cells is on the high side
+        const auto high = [&](long k) {
+          const float h = mapAt(ix + k * ax, iy + k * ay);
+          return !std::isnan(h) && h > mid;
+        };
+        long best = reach;
+        for (long k = -reach; k <= reach; ++k)
+          if (high(k + up) && !high(k + 1 - up)) best = std::min(best, std::labs(k));
+        edge_err.push_back(best * hp.resolution);
+      }
   MapScore m;
+  if (!edge_err.empty()) {
+    std::sort(edge_err.begin(), edge_err.end());
+    m.edge_median = edge_err[edge_err.size() / 2];
+    m.edge_p95 = edge_err[std::min(edge_err.size() - 1, static_cast<std::size_t>(0.95 * edge_err.size()))];
+  }
   m.rmse = known ? std::sqrt(se / known) : 0.0;
   m.walkable_rmse = walk_known ? std::sqrt(se_walk / walk_known) : 0.0;
   m.overconfident = walk_known ? static_cast<double>(beyond_2_sigma) / walk_known : 0.0;
@@ -346,6 +398,8 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   e.steppable_recall = single.steppable_recall;
   e.heightmap_rmse_m = single.rmse;
   e.walkable_rmse_m = single.walkable_rmse;
+  e.step_edge_median_m = single.edge_median;
+  e.step_edge_p95_m = single.edge_p95;
   e.invented = single.invented;
   e.heightmap_coverage = single.coverage;
   e.front_coverage = single.front;
@@ -512,29 +566,32 @@ std::string evalCsvHeader() {
          "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
          "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m,mixed_pixels,"
          "mixed_in_segments,front_observable,walkable_rmse_m,fused_walkable_rmse_m,invented,steppable_precision,"
-         "steppable_recall,fused_overconfident";
+         "steppable_recall,fused_overconfident,step_edge_median_m,step_edge_p95_m";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
   char buf[800];
   std::snprintf(buf, sizeof(buf),
                 "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,"
-                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f",
+                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f",
                 sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
                 e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
                 e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
                 e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m,
                 e.mixed_pixels, e.mixed_in_segments, e.front_observable, e.walkable_rmse_m, e.fused_walkable_rmse_m,
-                e.invented, e.steppable_precision, e.steppable_recall, e.fused_overconfident);
+                e.invented, e.steppable_precision, e.steppable_recall, e.fused_overconfident, e.step_edge_median_m,
+                e.step_edge_p95_m);
   return buf;
 }
 
 std::string evalSummary(const std::vector<SweepEval>& ev) {
+  const double kNan = std::numeric_limits<double>::quiet_NaN();
   SweepEval s;
   const double n = ev.empty() ? 1.0 : static_cast<double>(ev.size());
   double correct = 0, over = 0, under = 0, missed = 0, noise = 0;
   int veil = 0, overhanging = 0;
-  double mixed = 0, mixed_in = 0;
+  double mixed = 0, mixed_in = 0, edge_median = 0, edge_p95 = 0;
+  int edge_sweeps = 0;
   // The front of the feet is judged once the robot has walked its length
   // (before, the fused map has only what a standing robot sees): over the
   // sweeps after 1 m walked, or all when it stands.
@@ -569,6 +626,11 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     s.walkable_rmse_m += e.walkable_rmse_m / n;
     s.fused_walkable_rmse_m += e.fused_walkable_rmse_m / n;
     s.fused_overconfident += e.fused_overconfident / n;
+    if (!std::isnan(e.step_edge_median_m)) {  // sweeps that saw a step edge
+      edge_median += e.step_edge_median_m;
+      edge_p95 += e.step_edge_p95_m;
+      ++edge_sweeps;
+    }
     s.invented += e.invented / n;
     s.steppable_precision += e.steppable_precision / n;
     s.steppable_recall += e.steppable_recall / n;
@@ -589,12 +651,14 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
                 "group_ms=%.2f latency_ms=%.3f veil_segments=%d overhanging_segments=%d front_coverage=%.3f "
                 "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f mixed_pixels=%.1f "
                 "mixed_in_segments=%.1f front_observable=%.3f walkable_rmse_m=%.4f fused_walkable_rmse_m=%.4f "
-                "invented=%.4f steppable_precision=%.4f steppable_recall=%.4f fused_overconfident=%.4f",
+                "invented=%.4f steppable_precision=%.4f steppable_recall=%.4f fused_overconfident=%.4f "
+                "step_edge_median_m=%.3f step_edge_p95_m=%.3f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
                 s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms, mixed,
                 mixed_in, observable, s.walkable_rmse_m, s.fused_walkable_rmse_m, s.invented, s.steppable_precision,
-                s.steppable_recall, s.fused_overconfident);
+                s.steppable_recall, s.fused_overconfident, edge_sweeps ? edge_median / edge_sweeps : kNan,
+                edge_sweeps ? edge_p95 / edge_sweeps : kNan);
   return buf;
 }
 

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -92,6 +93,12 @@ struct SweepEval {
   /// Of the fused map's walkable cells, the share whose error exceeds twice
   /// the sigma it states for them (its uncertainty layer): honest, about 5 %.
   double fused_overconfident = 0.0;
+  /// The sweep map's step edges against the true ones (a true edge: a rise
+  /// between obstacle_min_height and max_step_height with 3 cm flat on each
+  /// side; the map's: where its heights pass the mid height along the same
+  /// row or column, within 10 cm, else 10 cm): median and 95th percentile
+  /// over each centimetre of edge [m]; NaN when none is in view.
+  double step_edge_median_m = std::numeric_limits<double>::quiet_NaN(), step_edge_p95_m = step_edge_median_m;
   /// The share of the sweep's known cells whose true surface the sensor could
   /// not see (hidden by something nearer along its ray): cells invented.
   double invented = 0.0;
