@@ -360,6 +360,38 @@ TEST(Grouping, PolygonsReachTheirCreaseToWithinTheMargin) {
   }
 }
 
+// A tread far from the head: its lines 12 cm apart, the first 11 cm from
+// the riser below (farther than crease_reach). No line saw the band across
+// its first line, up to where the next would lie: its first line's corners
+// are carried to the crease. With lines 5 cm apart the band is narrower than
+// the gap: they stay.
+TEST(Grouping, AnOutermostLineIsCarriedToACreaseWithinItsLineSpacing) {
+  const auto plane = [](const Eigen::Vector3d& n, const std::vector<Eigen::Vector3d>& ring) {
+    Plane p;
+    p.fit.normal = n.normalized();
+    p.fit.centroid = Eigen::Vector3d::Zero();
+    for (const auto& v : ring) p.fit.centroid += v / ring.size();
+    p.fit.offset = p.fit.normal.dot(p.fit.centroid);
+    p.boundary = ring;
+    p.area = 1.0;
+    return p;
+  };
+  // Corners: each line's entry in order, then each line's exit back.
+  const auto tread = [&](double spacing) {
+    return plane({0, 0, 1}, {{1.31, -0.5, 0.15}, {1.31 + spacing, -0.5, 0.15}, {1.31 + 2 * spacing, -0.5, 0.15},
+                             {1.31 + 2 * spacing, 0.5, 0.15}, {1.31 + spacing, 0.5, 0.15}, {1.31, 0.5, 0.15}});
+  };
+  const Plane riser = plane({-1, 0, 0}, {{1.2, -0.5, 0.02}, {1.2, -0.5, 0.145}, {1.2, 0.5, 0.145}, {1.2, 0.5, 0.02}});
+  std::vector<Plane> planes{tread(0.12), riser};
+  closeCreases(planes, 0.08, 0.005, 15.0);
+  EXPECT_NEAR(minCoord(planes[0].boundary, 0), 1.205, 1e-9);   // the first line's corners, to 5 mm from the riser
+  EXPECT_NEAR(planes[0].boundary[1].x(), 1.43, 1e-9);          // the others stay
+  EXPECT_NEAR(maxCoord(planes[1].boundary, 2), 0.145, 1e-9);   // the riser's were within the margin
+  planes = {tread(0.05), riser};
+  closeCreases(planes, 0.08, 0.005, 15.0);
+  EXPECT_NEAR(minCoord(planes[0].boundary, 0), 1.31, 1e-9);
+}
+
 TEST(Grouping, PlanesThatDoNotMeetKeepTheirPolygons) {
   // A tread and a wall: the wall 0.2 m beyond the tread's end, farther than
   // the reach; then 6 cm beyond it, but beside another stretch of their

@@ -937,8 +937,52 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
   for (std::size_t i = 0; i < n; ++i)
     for (const Eigen::Vector3d& v : planes[i].boundary) box[i].extend(v);
   const double max_cos = std::cos(min_angle_deg * kDeg);
+  // How far short of a crease a polygon may end. No line of the plane saw
+  // the band across its outermost line up to where its next line would lie
+  // (the spacing between its two outermost lines: a tread far from the head
+  // has lines 10-20 cm apart); elsewhere (beyond a line's end, which the line
+  // saw) `reach`. The outline lists each line's entry in order, then each
+  // line's exit back (2 corners a line).
+  std::vector<double> own_reach(n, reach);
+  const auto layoutLines = [](const Plane& p) {
+    return p.boundary.size() % 2 == 0 && p.boundary.size() >= 4 ? p.boundary.size() / 2 : std::size_t{0};
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::vector<Eigen::Vector3d>& b = planes[i].boundary;
+    const std::size_t lines = layoutLines(planes[i]);
+    if (lines == 0) continue;
+    const auto apart = [&](std::size_t l, std::size_t m) {  // line l's ends from line m's chord
+      const Eigen::Vector3d a = b[m], chord = b[2 * lines - 1 - m] - a;
+      if (!(chord.norm() > 0.0)) return 0.0;
+      const Eigen::Vector3d d = chord.normalized();
+      const auto from = [&](const Eigen::Vector3d& x) { return ((x - a) - d * d.dot(x - a)).norm(); };
+      return std::min(from(b[l]), from(b[2 * lines - 1 - l]));
+    };
+    own_reach[i] = std::max({reach, apart(0, 1), apart(lines - 1, lines - 2)});
+  }
+  // Whether corner v of plane k, `dist` short of the common line (negative:
+  // past it), may be carried along u to it: within `reach` either way; or,
+  // when v ends an outermost line, short of it by more: across that line by
+  // up to the plane's own reach, along it (its ends, which the line saw) by
+  // no more than `reach`, and not beyond its ends.
+  const auto mayCarry = [&](std::size_t k, std::size_t v, double dist, const Eigen::Vector3d& u) {
+    if (dist >= -reach && dist <= reach) return true;
+    if (dist < 0.0 || own_reach[k] <= reach) return false;
+    const std::vector<Eigen::Vector3d>& b = planes[k].boundary;
+    const std::size_t lines = layoutLines(planes[k]);
+    if (lines == 0) return false;
+    const std::size_t l = v < lines ? v : 2 * lines - 1 - v;
+    if (l != 0 && l != lines - 1) return false;
+    const Eigen::Vector3d a = b[l], chord = b[2 * lines - 1 - l] - a;
+    const double len = chord.norm();
+    if (!(len > 0.0)) return false;
+    const Eigen::Vector3d c = chord / len, move = -dist * u;
+    const double along_move = c.dot(move), across_move = (move - along_move * c).norm();
+    const double along = c.dot(b[v] + move - a) / len;
+    return std::abs(along_move) <= reach && across_move <= own_reach[k] && along >= -1e-9 && along <= 1.0 + 1e-9;
+  };
   // Whether a box comes within the reach of a plane (the common line lies on it).
-  const auto nearPlane = [reach](const Eigen::AlignedBox3d& b, const PlaneFit& f) {
+  const auto nearPlane = [](const Eigen::AlignedBox3d& b, const PlaneFit& f, double reach) {
     double lo = 1e300, hi = -1e300;
     for (int k = 0; k < 8; ++k) {
       const double dist = f.normal.dot(b.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k))) - f.offset;
@@ -955,10 +999,10 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
   std::vector<Move> moves;
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t j = i + 1; j < n; ++j) {
-      if (box[i].isEmpty() || box[j].isEmpty() || box[i].exteriorDistance(box[j]) > reach) continue;
+      if (box[i].isEmpty() || box[j].isEmpty() || box[i].exteriorDistance(box[j]) > own_reach[i] + own_reach[j]) continue;
       const PlaneFit &fa = planes[i].fit, &fb = planes[j].fit;
       const double c = fa.normal.dot(fb.normal);
-      if (std::abs(c) > max_cos || !nearPlane(box[j], fa) || !nearPlane(box[i], fb)) continue;
+      if (std::abs(c) > max_cos || !nearPlane(box[j], fa, own_reach[j]) || !nearPlane(box[i], fb, own_reach[i])) continue;
       const Eigen::Vector3d d = fa.normal.cross(fb.normal).normalized();
       const Eigen::Vector3d x0 =
           ((fa.offset - fb.offset * c) * fa.normal + (fb.offset - fa.offset * c) * fb.normal) / (1.0 - c * c);
@@ -969,31 +1013,37 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
         double lo = 1e300, hi = -1e300;  // along d, of the corners within reach
         bool meets = false;
       };
-      const auto side = [&](const Plane& p) {
+      const auto side = [&](std::size_t k) {
+        const Plane& p = planes[k];
         Side s;
         s.u = d.cross(p.fit.normal);
         if (s.u.dot(p.fit.centroid - x0) < 0.0) s.u = -s.u;
-        double nearest = 1e300;
-        for (const Eigen::Vector3d& v : p.boundary) {
-          const double dist = s.u.dot(v - x0);
-          nearest = std::min(nearest, dist);
-          if (std::abs(dist) <= reach) {
-            const double t = d.dot(v - x0);
+        std::size_t nearest = 0;
+        double nearest_dist = 1e300;
+        for (std::size_t v = 0; v < p.boundary.size(); ++v) {
+          const double dist = s.u.dot(p.boundary[v] - x0);
+          if (dist < nearest_dist) {
+            nearest_dist = dist;
+            nearest = v;
+          }
+          if (mayCarry(k, v, dist, s.u)) {
+            const double t = d.dot(p.boundary[v] - x0);
             s.lo = std::min(s.lo, t);
             s.hi = std::max(s.hi, t);
           }
         }
-        s.meets = nearest >= -reach && nearest <= reach;
+        s.meets = !p.boundary.empty() && mayCarry(k, nearest, nearest_dist, s.u);
         return s;
       };
-      const Side sa = side(planes[i]), sb = side(planes[j]);
+      const Side sa = side(i), sb = side(j);
       if (!sa.meets || !sb.meets) continue;
       const auto carry = [&](std::size_t k, const Side& own, const Side& other) {
         const std::vector<Eigen::Vector3d>& ring = planes[k].boundary;
         for (std::size_t v = 0; v < ring.size(); ++v) {
           const double dist = own.u.dot(ring[v] - x0), t = d.dot(ring[v] - x0);
           // (Corners within the margin on their own side stay.)
-          if ((dist > margin || dist < -1e-9) && std::abs(dist) <= reach && t >= other.lo - reach && t <= other.hi + reach)
+          if ((dist > margin || dist < -1e-9) && mayCarry(k, v, dist, own.u) && t >= other.lo - reach &&
+              t <= other.hi + reach)
             moves.push_back({k, v, ring[v] - (dist - margin) * own.u});
         }
       };

@@ -116,7 +116,12 @@ bool chordsCross(const Eigen::Vector2d& a0, const Eigen::Vector2d& b0, const Eig
 /// line crosses a nosing obliquely, and range noise moves its last point
 /// along the line beyond it). The margin is the line's own error: a riser
 /// crossed by two or three lines puts it a few millimetres off, and a tread
-/// carried past its nosing would claim the floor in front.
+/// carried past its nosing would claim the floor in front. A polygon whose
+/// outline lists its lines' entries and exits (2 corners a line) may also be
+/// short of the line by more than `reach` at an outermost line: no line of it
+/// saw the band across that line up to where its next line would lie, so
+/// those corners are carried across the line by up to the spacing of its two
+/// outermost lines (along it, where the line saw its ends, by `reach` at most).
 void closeCreases(std::vector<Plane>& planes, double reach, double margin, double min_angle_deg);
 
 class ScanLineGrouper {
