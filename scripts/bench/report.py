@@ -144,7 +144,7 @@ class Report:
             rows.append([label, f"{f['rmse_cm']:.2f}", f"{f['fused_rmse_cm']:.2f}", f"{f['fused_walkable_cm']:.2f}",
                          f"{f['overconfident_pct']:.1f}", f"{f['front']:.0f}", f"{f['fused_front']:.0f}",
                          f"{100 * f['correct'] / max(f['true_faces'], 1):.1f} %"])
-            if "realistic" not in args:
+            if "--realistic" not in args:
                 self.summary["walk"] = f"fused height map {f['fused_rmse_cm']:.1f} cm RMSE"
         s = ",".join(map(str, seeds))
         self.section("Walking: the fused height map",
