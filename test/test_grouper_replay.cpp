@@ -121,6 +121,14 @@ TEST(GrouperReplay, PlanesAndHeightMapMatchTheStairs) {
   for (int k = 0; k < 4; ++k) EXPECT_GE(tread_seen[k], 1) << "tread " << k + 1 << " never found within 1 cm";
   for (const HeightMap& map : maps) {
     EXPECT_NEAR(map.info.resolution, 0.01, 1e-6);
+    // The sweep's own map carries its uncertainty layer: a sigma for every known cell.
+    ASSERT_EQ(map.sigmas.size(), map.heights.size());
+    for (std::size_t c = 0; c < map.heights.size(); ++c)
+      if (std::isfinite(map.heights[c])) {
+        ASSERT_TRUE(map.sigmas[c] > 0.005f && map.sigmas[c] < 0.05f) << "cell " << c << ": " << map.sigmas[c];
+      } else {
+        ASSERT_TRUE(std::isnan(map.sigmas[c]));
+      }
     // Cells (x, y, true height, class) on the floor, the four treads and the box.
     const double cells[6][4] = {{0.95, -0.3, 0.0, HeightMap::CLASS_FLOOR}, {1.35, 0.0, 0.15, HeightMap::CLASS_STEP},
                                 {1.65, 0.0, 0.30, HeightMap::CLASS_STEP},  {1.95, 0.0, 0.45, HeightMap::CLASS_STEP},

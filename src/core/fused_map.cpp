@@ -135,6 +135,29 @@ void FusedHeightMap::uncertainty(double now, double travelled, std::vector<float
   }
 }
 
+SweepNoise::SweepNoise(const FusedMapParams& p, const HeightMapParams& g, const Eigen::Vector3d& sensor)
+    : s0_(static_cast<float>(p.sigma_min * p.sigma_min)),
+      k2_(static_cast<float>(p.sigma_range * p.sigma_range)),
+      pose_(static_cast<float>(p.sigma_pose)),
+      sx_(static_cast<float>(sensor.x() - g.origin_x)),
+      sy_(static_cast<float>(sensor.y() - g.origin_y)),
+      sz_(static_cast<float>(sensor.z())),
+      res_(static_cast<float>(g.resolution)) {}
+
+void sweepUncertainty(const HeightMapGrid& grid, const Eigen::Vector3d& sensor, const FusedMapParams& p,
+                      std::vector<float>& sigmas) {
+  const SweepNoise noise(p, grid.params, sensor);
+  sigmas.assign(grid.heights.size(), kNaN);
+  for (int iy = grid.box_y0; iy <= grid.box_y1; ++iy)
+    for (int ix = grid.box_x0; ix <= grid.box_x1; ++ix) {
+      const std::size_t c = grid.index(ix, iy);
+      const float h = grid.heights[c];
+      if (std::isnan(h)) continue;
+      const float b = noise.bias(ix, iy);
+      sigmas[c] = std::sqrt(noise.variance(ix, iy, h) + b * b);
+    }
+}
+
 void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& sensor, double stamp, double travelled) {
   placed_ = true;
   if (!have_epoch_) {
@@ -151,19 +174,10 @@ void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& s
   const int bx0 = sweep_.box_x0, bx1 = sweep_.box_x1, by0 = sweep_.box_y0, by1 = sweep_.box_y1;
   const double inv_res = 1.0 / g.resolution;
 
-  // The variance of a new height grows with the range it was seen from
-  // (sigma_min and sigma_range * range added in quadrature); an old one's
-  // with the distance walked since.
-  const float s0 = static_cast<float>(p_.sigma_min * p_.sigma_min), k2 = static_cast<float>(p_.sigma_range * p_.sigma_range);
-  const float sx = static_cast<float>(sensor.x() - g.origin_x), sy = static_cast<float>(sensor.y() - g.origin_y),
-              sz = static_cast<float>(sensor.z()), res = static_cast<float>(g.resolution);
-  const auto newVariance = [&](int ix, int iy, float z) {
-    const float dx = (ix + 0.5f) * res - sx, dy = (iy + 0.5f) * res - sy, dz = z - sz;
-    return s0 + k2 * (dx * dx + dy * dy + dz * dz);
-  };
-  // The head pose's error tilts the whole sweep: d x sigma_pose at a horizontal distance d.
-  const float pose = static_cast<float>(p_.sigma_pose);
-  const auto newBias = [&](int ix, int iy) { return pose * std::hypot((ix + 0.5f) * res - sx, (iy + 0.5f) * res - sy); };
+  // A new height's variance and the head pose's share of its error (SweepNoise).
+  const SweepNoise fresh(p_, g, sensor);
+  const auto newVariance = [&](int ix, int iy, float z) { return fresh.variance(ix, iy, z); };
+  const auto newBias = [&](int ix, int iy) { return fresh.bias(ix, iy); };
   const float drift = static_cast<float>(p_.drift_per_metre), walked_now = static_cast<float>(travelled);
   const auto oldVariance = [&](std::size_t c) {
     const float d = drift * std::max(0.0f, walked_now - walked_[c]);

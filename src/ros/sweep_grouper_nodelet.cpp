@@ -125,6 +125,7 @@ void SweepGrouperNodelet::onInit() {
   }
   map_params_.width = static_cast<int>(std::lround(size_x / map_params_.resolution));
   map_params_.height = static_cast<int>(std::lround(size_y / map_params_.resolution));
+  map_noise_ = fp;
   if (fuse_) fused_ = std::make_unique<core::FusedMapTracker>(map_params_, fp);
 
   // Set before anything that may call kickIf (the inline queues' hooks).
@@ -461,6 +462,7 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   toMsg(grid, *map);
   map->info.map_load_time = header.stamp;
   if (fused_) fused_->map().uncertainty(sweep.end, fused_->travelled(), map->sigmas, map->ages);
+  else core::sweepUncertainty(grid, core::meanOrigin(sweep), map_noise_, map->sigmas);
   planes_pub_.publish(planes);
   map_pub_.publish(map);
   if (grid_pub_.getNumSubscribers() > 0) {

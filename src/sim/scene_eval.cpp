@@ -393,11 +393,14 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   const std::string frame = o.walk.walking() ? "odom" : "base_footprint";
   if (!o.dump_prefix.empty()) dumpSweep(sw, grid, o.dump_prefix, base, frame);
   const Eigen::Vector3d eye = core::meanOrigin(sw);
-  const MapScore single = scoreMap(grid, truth_h, base, o, nullptr, 0.0, &scene, &eye, &sw.planes);
+  std::vector<float> sweep_sigmas;
+  core::sweepUncertainty(grid, eye, o.fused, sweep_sigmas);
+  const MapScore single = scoreMap(grid, truth_h, base, o, nullptr, 0.0, &scene, &eye, &sw.planes, &sweep_sigmas);
   e.steppable_precision = single.steppable_precision;
   e.steppable_recall = single.steppable_recall;
   e.heightmap_rmse_m = single.rmse;
   e.walkable_rmse_m = single.walkable_rmse;
+  e.overconfident = single.overconfident;
   e.step_edge_median_m = single.edge_median;
   e.step_edge_p95_m = single.edge_p95;
   e.invented = single.invented;
@@ -566,21 +569,21 @@ std::string evalCsvHeader() {
          "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
          "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m,mixed_pixels,"
          "mixed_in_segments,front_observable,walkable_rmse_m,fused_walkable_rmse_m,invented,steppable_precision,"
-         "steppable_recall,fused_overconfident,step_edge_median_m,step_edge_p95_m";
+         "steppable_recall,fused_overconfident,step_edge_median_m,step_edge_p95_m,overconfident";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
   char buf[800];
   std::snprintf(buf, sizeof(buf),
                 "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,"
-                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f",
+                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.4f",
                 sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
                 e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
                 e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
                 e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m,
                 e.mixed_pixels, e.mixed_in_segments, e.front_observable, e.walkable_rmse_m, e.fused_walkable_rmse_m,
                 e.invented, e.steppable_precision, e.steppable_recall, e.fused_overconfident, e.step_edge_median_m,
-                e.step_edge_p95_m);
+                e.step_edge_p95_m, e.overconfident);
   return buf;
 }
 
@@ -626,6 +629,7 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     s.walkable_rmse_m += e.walkable_rmse_m / n;
     s.fused_walkable_rmse_m += e.fused_walkable_rmse_m / n;
     s.fused_overconfident += e.fused_overconfident / n;
+    s.overconfident += e.overconfident / n;
     if (!std::isnan(e.step_edge_median_m)) {  // sweeps that saw a step edge
       edge_median += e.step_edge_median_m;
       edge_p95 += e.step_edge_p95_m;
@@ -652,13 +656,13 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
                 "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f mixed_pixels=%.1f "
                 "mixed_in_segments=%.1f front_observable=%.3f walkable_rmse_m=%.4f fused_walkable_rmse_m=%.4f "
                 "invented=%.4f steppable_precision=%.4f steppable_recall=%.4f fused_overconfident=%.4f "
-                "step_edge_median_m=%.3f step_edge_p95_m=%.3f",
+                "step_edge_median_m=%.3f step_edge_p95_m=%.3f overconfident=%.4f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
                 s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms, mixed,
                 mixed_in, observable, s.walkable_rmse_m, s.fused_walkable_rmse_m, s.invented, s.steppable_precision,
                 s.steppable_recall, s.fused_overconfident, edge_sweeps ? edge_median / edge_sweeps : kNan,
-                edge_sweeps ? edge_p95 / edge_sweeps : kNan);
+                edge_sweeps ? edge_p95 / edge_sweeps : kNan, s.overconfident);
   return buf;
 }
 

@@ -53,6 +53,30 @@ struct FusedMapParams {
   std::string validate() const;
 };
 
+/// One sweep's height error in a cell, as the noise model gives it: the
+/// range noise's variance (sigma_min and sigma_range x the range from the
+/// sensor, in quadrature) and the head pose's share, sigma_pose x the
+/// horizontal distance, which is the same in every sweep.
+class SweepNoise {
+ public:
+  SweepNoise(const FusedMapParams& p, const HeightMapParams& grid, const Eigen::Vector3d& sensor);
+  /// [m^2] of a height z in cell (ix, iy)
+  float variance(int ix, int iy, float z) const {
+    const float dx = (ix + 0.5f) * res_ - sx_, dy = (iy + 0.5f) * res_ - sy_, dz = z - sz_;
+    return s0_ + k2_ * (dx * dx + dy * dy + dz * dz);
+  }
+  /// [m, sigma]
+  float bias(int ix, int iy) const { return pose_ * std::hypot((ix + 0.5f) * res_ - sx_, (iy + 0.5f) * res_ - sy_); }
+
+ private:
+  float s0_, k2_, pose_, sx_, sy_, sz_, res_;
+};
+
+/// A sweep's own map's uncertainty layer: each known cell's sigma (both of
+/// SweepNoise's terms) seen from `sensor`, NaN where unknown.
+void sweepUncertainty(const HeightMapGrid& grid, const Eigen::Vector3d& sensor, const FusedMapParams& p,
+                      std::vector<float>& sigmas);
+
 /// A walkable plane of the fused map: the newest sweep's plane and polygon
 /// under a persistent id, and when it was last seen.
 struct TerrainPlane {

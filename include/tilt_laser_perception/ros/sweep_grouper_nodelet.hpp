@@ -97,6 +97,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   core::FootParams foot_;  // the steppable layer's
   std::vector<std::uint8_t> steppable_;
   core::HeightMapGrid grid_;  // reused: no page faults per sweep
+  core::FusedMapParams map_noise_;  // the cells' noise terms (the sweep's own map's sigmas too)
   // ~fuse_sweeps: height_map is the map fused over sweeps, its centre on ~robot_frame.
   bool fuse_ = false;
   std::string robot_frame_;

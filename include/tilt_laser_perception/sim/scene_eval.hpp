@@ -93,6 +93,7 @@ struct SweepEval {
   /// Of the fused map's walkable cells, the share whose error exceeds twice
   /// the sigma it states for them (its uncertainty layer): honest, about 5 %.
   double fused_overconfident = 0.0;
+  double overconfident = 0.0;  ///< the same of the sweep's own map (its sigmas: core::sweepUncertainty)
   /// The sweep map's step edges against the true ones (a true edge: a rise
   /// between obstacle_min_height and max_step_height with 3 cm flat on each
   /// side; the map's: where its heights pass the mid height along the same
