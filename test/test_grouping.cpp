@@ -315,6 +315,18 @@ double maxCoord(const std::vector<Eigen::Vector3d>& ring, int axis) {
   for (const auto& v : ring) m = std::max(m, v[axis]);
   return m;
 }
+/// A plane of normal n through the centroid of its outline (area 1 m^2, as
+/// closeCreases' tests need no more).
+Plane plane(const Eigen::Vector3d& n, const std::vector<Eigen::Vector3d>& ring) {
+  Plane p;
+  p.fit.normal = n.normalized();
+  p.fit.centroid = Eigen::Vector3d::Zero();
+  for (const auto& v : ring) p.fit.centroid += v / ring.size();
+  p.fit.offset = p.fit.normal.dot(p.fit.centroid);
+  p.boundary = ring;
+  p.area = 1.0;
+  return p;
+}
 }  // namespace
 
 TEST(Grouping, PolygonsReachTheirCreaseToWithinTheMargin) {
@@ -366,16 +378,6 @@ TEST(Grouping, PolygonsReachTheirCreaseToWithinTheMargin) {
 // are carried to the crease. With lines 5 cm apart the band is narrower than
 // the gap: they stay.
 TEST(Grouping, AnOutermostLineIsCarriedToACreaseWithinItsLineSpacing) {
-  const auto plane = [](const Eigen::Vector3d& n, const std::vector<Eigen::Vector3d>& ring) {
-    Plane p;
-    p.fit.normal = n.normalized();
-    p.fit.centroid = Eigen::Vector3d::Zero();
-    for (const auto& v : ring) p.fit.centroid += v / ring.size();
-    p.fit.offset = p.fit.normal.dot(p.fit.centroid);
-    p.boundary = ring;
-    p.area = 1.0;
-    return p;
-  };
   // Corners: each line's entry in order, then each line's exit back.
   const auto tread = [&](double spacing) {
     return plane({0, 0, 1}, {{1.31, -0.5, 0.15}, {1.31 + spacing, -0.5, 0.15}, {1.31 + 2 * spacing, -0.5, 0.15},
@@ -396,16 +398,6 @@ TEST(Grouping, PlanesThatDoNotMeetKeepTheirPolygons) {
   // A tread and a wall: the wall 0.2 m beyond the tread's end, farther than
   // the reach; then 6 cm beyond it, but beside another stretch of their
   // common line; then at 10 degrees to the tread (no crease).
-  const auto plane = [](const Eigen::Vector3d& n, const std::vector<Eigen::Vector3d>& ring) {
-    Plane p;
-    p.fit.normal = n.normalized();
-    p.fit.centroid = Eigen::Vector3d::Zero();
-    for (const auto& v : ring) p.fit.centroid += v / ring.size();
-    p.fit.offset = p.fit.normal.dot(p.fit.centroid);
-    p.boundary = ring;
-    p.area = 1.0;
-    return p;
-  };
   const Plane tread = plane({0, 0, 1}, {{1.0, -0.5, 0.15}, {1.0, 0.5, 0.15}, {1.3, 0.5, 0.15}, {1.3, -0.5, 0.15}});
   const auto wall = [&](double x, double y0, double y1) {
     return plane({-1, 0, 0}, {{x, y0, 0.2}, {x, y1, 0.2}, {x, y1, 0.5}, {x, y0, 0.5}});
