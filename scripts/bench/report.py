@@ -183,6 +183,7 @@ class Report:
         for key, what in (("split_ms", "split of a 1081 x 200 sweep"), ("group_ms", "grouping of that sweep, as lines arrive"),
                           ("latency_ms", "latency after its last line (finish, map, fused map)"),
                           ("finish_ms", "of it: the grouping's finish"), ("map_ms", "of it: the height map"),
+                          ("sigma_ms", "of it: the map's uncertainty layer"),
                           ("steppable_ms", "the steppable layer besides (built while subscribed)")):
             if key in kv:
                 rows.append([what, f"{float(kv[key]):.2f} ms"])

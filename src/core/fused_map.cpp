@@ -146,16 +146,26 @@ SweepNoise::SweepNoise(const FusedMapParams& p, const HeightMapParams& g, const 
 
 void sweepUncertainty(const HeightMapGrid& grid, const Eigen::Vector3d& sensor, const FusedMapParams& p,
                       std::vector<float>& sigmas) {
-  const SweepNoise noise(p, grid.params, sensor);
+  // SweepNoise's variance plus its bias squared, in one sqrt a known cell:
+  // s0 + (k2 + pose^2) (dx^2 + dy^2) + k2 dz^2. Run on every sweep the
+  // grouper publishes (bench_sweep's sigma_ms).
+  const HeightMapParams& g = grid.params;
   sigmas.assign(grid.heights.size(), kNaN);
-  for (int iy = grid.box_y0; iy <= grid.box_y1; ++iy)
+  const float s0 = static_cast<float>(p.sigma_min * p.sigma_min), k2 = static_cast<float>(p.sigma_range * p.sigma_range);
+  const float kh = k2 + static_cast<float>(p.sigma_pose * p.sigma_pose), res = static_cast<float>(g.resolution);
+  const float sx = static_cast<float>(sensor.x() - g.origin_x), sy = static_cast<float>(sensor.y() - g.origin_y),
+              sz = static_cast<float>(sensor.z());
+  for (int iy = grid.box_y0; iy <= grid.box_y1; ++iy) {
+    const float dy = (iy + 0.5f) * res - sy;
+    const std::size_t c0 = grid.index(0, iy);
+    const float* __restrict h = grid.heights.data() + c0;
+    float* __restrict out = sigmas.data() + c0;
     for (int ix = grid.box_x0; ix <= grid.box_x1; ++ix) {
-      const std::size_t c = grid.index(ix, iy);
-      const float h = grid.heights[c];
-      if (std::isnan(h)) continue;
-      const float b = noise.bias(ix, iy);
-      sigmas[c] = std::sqrt(noise.variance(ix, iy, h) + b * b);
+      if (std::isnan(h[ix])) continue;
+      const float dx = (ix + 0.5f) * res - sx, dz = h[ix] - sz;
+      out[ix] = std::sqrt(s0 + kh * (dx * dx + dy * dy) + k2 * dz * dz);
     }
+  }
 }
 
 void FusedHeightMap::addSweep(const SweepResult& sweep, const Eigen::Vector3d& sensor, double stamp, double travelled) {
