@@ -137,7 +137,10 @@ TEST_P(ServoDriverTest, SpinsAtTheProfilesSpeedAndCountsTheTurns) {
     const double turned = rec.joints.back().position - rec.joints.front().position;
     std::printf("protocol %d spinning: turned %.2f rad, max error %.3f deg, %zu sweeps\n", GetParam(), turned,
                 max_err * 180 / M_PI, rec.sweeps.size());
-    EXPECT_LT(max_err * 180.0 / M_PI, 0.2);
+    // Within an encoder step plus what the speed makes of a stamp's allowed
+    // uncertainty (reads delayed more are not published): 0.32 deg at 4 rad/s
+    // (a sanitizer build's slow reads reached 0.21).
+    EXPECT_LT(max_err, dynamixel::kRadPerStep + o.profile.speed * o.max_stamp_uncertainty);
     EXPECT_GT(turned, 2.0 * M_PI + 1.0);  // past a turn: counted, not wrapped
     EXPECT_NEAR(rec.joints.back().velocity, 4.0, 0.1);
     // A sweep each half turn, cut where the angle passes a multiple of pi.
