@@ -200,6 +200,104 @@ TEST(HeightMap, APlaneFillsOnlyBetweenItsLinesNotAcrossWhatTheyDidNotSee) {
   EXPECT_EQ(g.classes[at(1.6, 0.03)], CellClass::Floor);
 }
 
+namespace {
+/// A nodding head at (0, 0, 1.4) over the floor and one level top at height
+/// h over x in [x0, x1], |y| <= 0.6: a table (the top alone: the floor under
+/// it seen from the front) or a box (its front face at x0 too). Lines of
+/// beams along y, steepest first; each line's runs on the floor and on the
+/// top are segments of planes 0 and 1; the front face's points are in none.
+SweepResult overhangSweep(double h, double x0, double x1, bool front_face) {
+  SweepResult s;
+  const Eigen::Vector3d o(0.0, 0.0, 1.4);
+  Plane floor, top;
+  floor.id = 0;
+  floor.area = 10.0;
+  top.id = 1;
+  top.area = 0.5;
+  top.fit.offset = h;
+  top.fit.centroid = Eigen::Vector3d(0.5 * (x0 + x1), 0.0, h);
+  for (double slope = 1.2; slope > 0.2; slope -= 0.015) {
+    SweepLine line;
+    line.origin = o.cast<float>();
+    std::vector<int> surface;
+    for (int b = 0; b <= 100; ++b) {
+      const Eigen::Vector3d d(1.0, -0.5 + 0.01 * b, -slope);
+      double t = -o.z() / d.z();
+      int on = 0;
+      const double t_top = (h - o.z()) / d.z(), t_face = (x0 - o.x()) / d.x();
+      const Eigen::Vector3d at_top = o + t_top * d, at_face = o + t_face * d;
+      if (at_top.x() >= x0 && at_top.x() <= x1 && std::abs(at_top.y()) <= 0.6) {
+        t = t_top;
+        on = 1;
+      } else if (front_face && at_face.z() >= 0.0 && at_face.z() <= h && std::abs(at_face.y()) <= 0.6 && t_face < t) {
+        t = t_face;
+        on = 2;
+      }
+      line.points.push_back((o + t * d).cast<float>());
+      surface.push_back(on);
+    }
+    const int li = static_cast<int>(s.lines.size());
+    for (int b = 0; b <= 100;) {
+      int e = b;
+      while (e < 100 && surface[e + 1] == surface[b]) ++e;
+      if (surface[b] < 2 && e > b) {
+        Segment3 seg;
+        makeSegment3(line.points, std::vector<float>(line.points.size(), 2.0f), li, b, e, seg);
+        seg.origin = o;
+        (surface[b] == 0 ? floor : top).members.push_back(static_cast<int>(s.segments.size()));
+        s.segments.push_back(seg);
+        s.segment_plane.push_back(surface[b]);
+      }
+      b = e + 1;
+    }
+    s.lines.push_back(line);
+  }
+  s.planes = {floor, top};
+  return s;
+}
+}  // namespace
+
+TEST(HeightMap, WhatLiesBeneathWhereAnOverhangMayGoOnIsUnknown) {
+  // A table top 0.75 m up over x 1.76-2.52. The floor under it is seen from
+  // the front, under its edge; its lines (some 10-15 cm apart) end short of
+  // its edges. Between its outermost line and where the next line's rays
+  // crossed its height (passing on to the far floor) the top may go on: the
+  // floor seen there from under it is not the 2.5D surface, so unknown.
+  const SweepResult table = overhangSweep(0.75, 1.76, 2.52, false);
+  HeightMapParams p;
+  p.origin_x = 0.5;
+  p.origin_y = -1.0;
+  p.width = 400;
+  p.height = 200;
+  HeightMapGrid g;
+  buildHeightMap(table, p, g);
+  const auto at = [&](double x, double y) {
+    return g.index(static_cast<int>((x - p.origin_x) / 0.01), static_cast<int>((y - p.origin_y) / 0.01));
+  };
+  // The top's first and last lines on it (x where their beam 50 hits it).
+  double first = 1e9, last = -1e9;
+  for (const int si : table.planes[1].members) {
+    first = std::min(first, table.segments[si].start.x());
+    last = std::max(last, table.segments[si].start.x());
+  }
+  ASSERT_GT(first, 1.78);
+  ASSERT_LT(last, 2.5);  // (both edges short of the lines: the band exists)
+  int wrong = 0, cells = 0;
+  for (double x = 1.765; x < 2.52; x += 0.01) {
+    const float z = g.heights[at(x, 0.005)];
+    ++cells;
+    wrong += std::isfinite(z) && std::abs(z - 0.75f) > 0.01f;  // the floor's 0 where the top is
+  }
+  EXPECT_EQ(wrong, 0) << "of " << cells << " cells under the top";
+  EXPECT_NEAR(g.heights[at(2.2, 0.005)], 0.75, 1e-4);
+  EXPECT_NEAR(g.heights[at(1.5, 0.005)], 0.0, 1e-4);  // the floor in front, seen from above
+  EXPECT_NEAR(g.heights[at(3.0, 0.005)], 0.0, 1e-4);  // and behind, beyond where the top may go
+  // A box instead (the same top, its front face seen): the edge is seen, the
+  // floor before it stays known up to the face.
+  buildHeightMap(overhangSweep(0.2, 1.76, 2.52, true), p, g);
+  for (double x = 1.505; x < 1.75; x += 0.01) EXPECT_NEAR(g.heights[at(x, 0.005)], 0.0, 1e-4) << x;
+}
+
 TEST(HeightMap, AFootOfAnyYawFitsWhereItsDiscLiesOnOnePlane) {
   // 2 x 2 m of floor (plane 0), a tread 0.15 m up over x 1.0-1.3 (plane 1),
   // an obstacle cell at (0.505, 0.505), a cell nobody saw at (1.705, 1.705),

@@ -127,7 +127,8 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   std::vector<Edge> edges;
   std::vector<int> row_count, row_fill, row_edges;
   std::vector<double> xs;
-  const auto fillRings = [&](const Plane& pl, const std::vector<std::vector<Eigen::Vector2d>>& polys) {
+  const auto fillRings = [&](const Plane& pl, const std::vector<std::vector<Eigen::Vector2d>>& polys,
+                             const auto& rowOp) {
     double ymin = 1e300, ymax = -1e300;
     for (const auto& ring : polys)
       for (const Eigen::Vector2d& v : ring) {
@@ -167,7 +168,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         xs.push_back(e.ax + (y - e.ay) / (e.by - e.ay) * (e.bx - e.ax));
       }
       std::sort(xs.begin(), xs.end());
-      for (std::size_t k = 0; k + 1 < xs.size(); k += 2) fillRow(pl, iy, xs[k], xs[k + 1]);
+      for (std::size_t k = 0; k + 1 < xs.size(); k += 2) rowOp(pl, iy, xs[k], xs[k + 1]);
     }
   };
   std::vector<std::vector<Eigen::Vector2d>> rings;
@@ -191,7 +192,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     if (ch.from.size() >= 2) {
       rings.assign(1, ch.from);
       rings[0].insert(rings[0].end(), ch.to.rbegin(), ch.to.rend());
-      fillRings(pl, rings);
+      fillRings(pl, rings, fillRow);
     }
     ch.from.clear();
     ch.to.clear();
@@ -212,7 +213,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         rings.emplace_back();
         for (const Eigen::Vector3d& v : h) rings.back().emplace_back(v.x(), v.y());
       }
-      fillRings(pl, rings);
+      fillRings(pl, rings, fillRow);
       continue;
     }
     // Between its scan lines: the strip between two of its segments on
@@ -307,7 +308,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
           // meets the plane): two triangles from the crossing.
           if (crossed) rings = {{a0, x, a1}, {x, b0, b1}};
           else rings = {{a0, b0, b1, a1}};
-          for (const auto& r : rings) fillRings(pl, {r});
+          for (const auto& r : rings) fillRings(pl, {r}, fillRow);
         }
       for (const int ch : chain_of)  // chains that end on this line
         if (ch >= 0) flushChain(pl, chains[ch]);
@@ -384,6 +385,84 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       cursor = std::max(cursor, s.last + 1);
     }
     for (int i = cursor; i < end; ++i) markLoose(i);
+  }
+
+  // Where a walkable plane may go on: across its outermost line, up to where
+  // the next line's rays crossed its height unblocked, the surface ends
+  // somewhere no line saw. A surface the map holds there beneath it was seen
+  // from under it (the floor under a table's edges): the 2.5D map does not
+  // know which is on top, so it says unknown. Where the next line's ray ends
+  // within that band (on a riser or a box's side under the edge) the edge is
+  // seen, and nothing changes; where it ends beyond the band or under the
+  // plane, it passed the edge.
+  const auto hideRow = [&](const Plane& pl, int iy, double xa, double xb) {
+    const int ix0 = std::max(0, static_cast<int>(std::ceil((xa - p.origin_x) * inv_res - 0.5)));
+    const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xb - p.origin_x) * inv_res - 0.5)));
+    const Eigen::Vector3d& n = pl.fit.normal;
+    const double y = p.origin_y + (iy + 0.5) * p.resolution;
+    for (int ix = ix0; ix <= ix1; ++ix) {
+      const std::size_t c = out.index(ix, iy);
+      const double z = (pl.fit.offset - n.x() * (p.origin_x + (ix + 0.5) * p.resolution) - n.y() * y) / n.z();
+      if (!(out.heights[c] < z - p.obstacle_min_height)) continue;
+      out.heights[c] = nan;
+      out.plane_ids[c] = -1;
+      out.classes[c] = CellClass::Unknown;
+    }
+  };
+  std::vector<Eigen::Vector2d> near_side, far_side;
+  const auto flushBand = [&](const Plane& pl) {
+    if (near_side.size() >= 2) {
+      rings.assign(1, near_side);
+      rings[0].insert(rings[0].end(), far_side.rbegin(), far_side.rend());
+      fillRings(pl, rings, hideRow);
+    }
+    near_side.clear();
+    far_side.clear();
+  };
+  const int line_count = static_cast<int>(sweep.lines.size());
+  for (const Plane& pl : sweep.planes) {
+    if (!walkable[pl.id] || pl.members.empty()) continue;
+    const PlaneFit& f = pl.fit;
+    int first_line = line_count, last_line = -1;
+    for (const int si : pl.members) {
+      first_line = std::min(first_line, sweep.segments[si].line);
+      last_line = std::max(last_line, sweep.segments[si].line);
+    }
+    for (const auto& [outer, next] : {std::pair<int, int>{first_line, first_line - 1}, {last_line, last_line + 1}}) {
+      if (next < 0 || next >= line_count || outer < 0 || outer >= line_count) continue;
+      const SweepLine& lo = sweep.lines[outer];
+      const SweepLine& ln = sweep.lines[next];
+      const Eigen::Vector3d o = ln.origin.cast<double>();
+      const double n_o = f.normal.dot(o);
+      for (const int si : pl.members) {
+        const Segment3& s = sweep.segments[si];
+        if (s.line != outer) continue;
+        for (int b = s.first; b <= s.last; ++b) {
+          bool open = b < static_cast<int>(ln.points.size());
+          Eigen::Vector2d from, to;
+          if (open) {
+            const Eigen::Vector3d x = ln.points[b].cast<double>(), r = x - o;
+            const double t = (f.offset - n_o) / f.normal.dot(r);  // where the ray crosses the plane, of the way to x
+            open = lo.points[b].allFinite() && x.allFinite() && t > 0.0 && t < 1.0;
+            if (open) {
+              const Eigen::Vector3d at = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults);
+              from = at.head<2>();
+              to = (o + t * r).head<2>();
+              const Eigen::Vector2d band = to - from;
+              const double ends = (x.head<2>() - from).dot(band);  // where the ray ends, along the band
+              open = band.squaredNorm() > 0.0 && (ends < 0.0 || ends > band.squaredNorm());
+            }
+          }
+          if (!open) {
+            flushBand(pl);
+            continue;
+          }
+          near_side.push_back(from);
+          far_side.push_back(to);
+        }
+        flushBand(pl);
+      }
+    }
   }
 }
 

@@ -86,7 +86,12 @@ struct FootParams {
 void steppableCells(const HeightMapGrid& grid, const std::vector<Plane>& planes, const FootParams& foot,
                     std::vector<std::uint8_t>& out);
 
-/// Builds the height map of a sweep (planes and points in the map frame, z up).
+/// Builds the height map of a sweep (planes and points in the map frame, z up):
+/// walkable planes between their lines (seen from above, the higher wins),
+/// points above them as obstacles, and unknown what lies more than
+/// obstacle_min_height beneath where a walkable plane may go on unseen (across
+/// its outermost line, up to where the next line's rays passed its height:
+/// the floor under a table's edges).
 /// When `out` holds the map an earlier call made of the same size (unchanged
 /// since), only that map's box is cleared first, not the whole grid.
 void buildHeightMap(const SweepResult& sweep, const HeightMapParams& params, HeightMapGrid& out);
