@@ -199,6 +199,107 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   };
   std::vector<int> mem;
   const GroupingParams grouping_defaults;  // the shift along a ray a corner may take (cornerOnPlane)
+  // Whether the ray of beam b of line l passed the plane: it ends beyond it
+  // by more than obstacle_min_height (`at`: where it crossed the plane, x
+  // y), or nowhere (no return; `at` NaN). Beside the plane's end there, that
+  // is the surface's own edge, not the foot of what hid it nor a step too
+  // low to tell from a rough surface.
+  const auto passed = [&](const PlaneFit& f, int l, int b, Eigen::Vector2d& at) {
+    at.setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (l < 0 || l >= static_cast<int>(sweep.lines.size())) return false;
+    const SweepLine& line = sweep.lines[l];
+    if (b < 0 || b >= static_cast<int>(line.points.size())) return false;
+    if (!line.points[b].allFinite()) return true;
+    const Eigen::Vector3d o = line.origin.cast<double>(), r = line.points[b].cast<double>() - o;
+    const double t = (f.offset - f.normal.dot(o)) / f.normal.dot(r);
+    // (The normal points towards the sensor: beyond is below the offset.)
+    if (!(t > 0.0 && f.normal.dot(o + r) - f.offset < -p.obstacle_min_height)) return false;
+    at = (o + t * r).head<2>();
+    return true;
+  };
+  const auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& w) { return u.x() * w.y() - u.y() * w.x(); };
+  std::vector<Eigen::Vector2d> outline, free_at;
+  std::vector<double> beam_step;
+  std::vector<char> own_edge;
+  // Corners its lines cut: where the plane's own edges turn between two of
+  // its lines, or beyond its outermost line, no line saw the corner; the
+  // edges run on straight to it, by no more than one step of their lines
+  // each, and not past where a ray crossed the plane's height unblocked (a
+  // landing's or a box top's corner, the lines across it at an angle). The
+  // outline: each line's entry in order, then each line's exit back; an
+  // edge is two successive entries (or exits) both the surface's own edge;
+  // a corner, two edges that turn by more than their ends' jitter.
+  const auto fillCutCorners = [&](const Plane& pl) {
+    outline.clear();
+    own_edge.clear();
+    free_at.clear();
+    beam_step.clear();
+    Eigen::Vector2d at;
+    const auto end = [&](const Piece& pc, bool entry) {
+      outline.push_back(entry ? pc.from : pc.to);
+      beam_step.push_back((pc.to - pc.from).norm() / std::max(1, pc.beam_last - pc.beam_first));
+      own_edge.push_back(passed(pl.fit, pc.line, entry ? pc.beam_first - 1 : pc.beam_last + 1, at));
+      if (at.allFinite()) free_at.push_back(at);
+    };
+    for (std::size_t k = 0; k < pieces.size(); ++k)
+      if (k == 0 || pieces[k - 1].line != pieces[k].line) end(pieces[k], true);
+    const std::size_t lines = outline.size();
+    for (std::size_t k = pieces.size(); k-- > 0;)
+      if (k + 1 == pieces.size() || pieces[k + 1].line != pieces[k].line) end(pieces[k], false);
+    const std::size_t m = outline.size();
+    if (lines < 2) return;
+    // Beyond the outermost lines: where the next lines' rays crossed it.
+    for (const Piece& pc : pieces) {
+      const int next = pc.line == pieces.front().line ? pc.line - 1 : pc.line == pieces.back().line ? pc.line + 1 : -1;
+      if (next < 0) continue;
+      for (int b = pc.beam_first; b <= pc.beam_last; ++b)
+        if (passed(pl.fit, next, b, at) && at.allFinite()) free_at.push_back(at);
+    }
+    double area2 = 0.0;  // twice the outline's signed area: its orientation
+    for (std::size_t i = 0; i < m; ++i) area2 += cross(outline[i], outline[(i + 1) % m]);
+    // Whether outline[k - 1], outline[k], outline[k + 1] are three ends of
+    // one straight edge (the middle one within its beam step of the chord
+    // of the others): a direction two ends alone give may be a chord across
+    // a corner the lines cut.
+    const auto straight = [&](std::size_t k) {
+      const std::size_t k0 = (k + m - 1) % m, k2 = (k + 1) % m;
+      if ((k0 < lines) != (k < lines) || (k2 < lines) != (k < lines) || !own_edge[k0] || !own_edge[k] || !own_edge[k2])
+        return false;
+      const Eigen::Vector2d chord = outline[k2] - outline[k0];
+      const double len = chord.norm();
+      return len > 0.0 && std::abs(cross(chord, outline[k] - outline[k0])) / len <= beam_step[k];
+    };
+    for (std::size_t i = 0; i < m; ++i) {
+      // The corner between outline[i] and outline[i + 1], where the edges
+      // (outline[i - 2], outline[i - 1], outline[i]) and (outline[i + 1],
+      // outline[i + 2], outline[i + 3]) meet.
+      const std::size_t i0 = (i + m - 1) % m, i2 = (i + 1) % m, i3 = (i + 2) % m;
+      const auto edge = [&](std::size_t u, std::size_t w) {  // two ends of one side, the surface's own edge
+        return (u < lines) == (w < lines) && own_edge[u] && own_edge[w];
+      };
+      if (!edge(i0, i) || !edge(i2, i3) || !(straight(i0) || straight(i3))) continue;
+      const Eigen::Vector2d &a = outline[i], &b = outline[i2];
+      const Eigen::Vector2d d1 = a - outline[i0], d2 = outline[i3] - b;
+      // A line's end lies up to a beam short of the edge, so an edge's
+      // direction is known to within the two ends' beam steps over its
+      // length: the edges must turn by more than that (not a straight edge
+      // whose ends jitter).
+      const double det = cross(d1, d2);  // a + s d1 = b - u d2
+      const double uncertain = (beam_step[i0] + beam_step[i]) / d1.norm() + (beam_step[i2] + beam_step[i3]) / d2.norm();
+      if (!(std::atan2(std::abs(det), d1.dot(d2)) > uncertain)) continue;
+      const double s = cross(b - a, d2) / det, u = cross(d1, b - a) / det;
+      if (!(s > 0.0 && s <= 1.0 && u > 0.0 && u <= 1.0)) continue;
+      const Eigen::Vector2d corner = a + s * d1;
+      if (cross(b - a, corner - a) * area2 >= 0.0) continue;  // not outside the outline
+      const auto inside = [&](const Eigen::Vector2d& q) {
+        const double c0 = cross(corner - a, q - a), c1 = cross(b - corner, q - corner), c2 = cross(a - b, q - b);
+        return (c0 > 0.0 && c1 > 0.0 && c2 > 0.0) || (c0 < 0.0 && c1 < 0.0 && c2 < 0.0);
+      };
+      if (std::any_of(free_at.begin(), free_at.end(), inside)) continue;
+      rings.assign(1, {a, corner, b});
+      fillRings(pl, rings, fillRow);
+    }
+  };
   for (const Plane& pl : sweep.planes) {
     if (!walkable[pl.id]) continue;
     inv_nz = 1.0 / pl.fit.normal.z();
@@ -263,6 +364,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       pc.to = onPlane(corners && last ? pl.boundary[2 * lines - 1 - line] : e.end, e.origin);
       pc.beside = besideMap(s, p) && besideMap(e, p);
     }
+    fillCutCorners(pl);
     // [a, b) and [b, c): the pieces of two successive lines of the plane.
     std::size_t a = 0;
     Eigen::Vector2d x;
@@ -429,29 +531,20 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       last_line = std::max(last_line, sweep.segments[si].line);
     }
     for (const auto& [outer, next] : {std::pair<int, int>{first_line, first_line - 1}, {last_line, last_line + 1}}) {
-      if (next < 0 || next >= line_count || outer < 0 || outer >= line_count) continue;
+      if (outer < 0 || outer >= line_count) continue;  // (a plane without its lines)
       const SweepLine& lo = sweep.lines[outer];
-      const SweepLine& ln = sweep.lines[next];
-      const Eigen::Vector3d o = ln.origin.cast<double>();
-      const double n_o = f.normal.dot(o);
       for (const int si : pl.members) {
         const Segment3& s = sweep.segments[si];
         if (s.line != outer) continue;
-        for (int b = s.first; b <= s.last; ++b) {
-          bool open = b < static_cast<int>(ln.points.size());
-          Eigen::Vector2d from, to;
+        Eigen::Vector2d to;
+        for (int b = s.first; b <= std::min(s.last, static_cast<int>(lo.points.size()) - 1); ++b) {
+          bool open = lo.points[b].allFinite() && passed(f, next, b, to) && to.allFinite();
+          Eigen::Vector2d from;
           if (open) {
-            const Eigen::Vector3d x = ln.points[b].cast<double>(), r = x - o;
-            const double t = (f.offset - n_o) / f.normal.dot(r);  // where the ray crosses the plane, of the way to x
-            open = lo.points[b].allFinite() && x.allFinite() && t > 0.0 && t < 1.0;
-            if (open) {
-              const Eigen::Vector3d at = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults);
-              from = at.head<2>();
-              to = (o + t * r).head<2>();
-              const Eigen::Vector2d band = to - from;
-              const double ends = (x.head<2>() - from).dot(band);  // where the ray ends, along the band
-              open = band.squaredNorm() > 0.0 && (ends < 0.0 || ends > band.squaredNorm());
-            }
+            from = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults).head<2>();
+            const Eigen::Vector2d band = to - from;
+            const double ends = (sweep.lines[next].points[b].cast<double>().head<2>() - from).dot(band);  // along the band
+            open = band.squaredNorm() > 0.0 && (ends < 0.0 || ends > band.squaredNorm());
           }
           if (!open) {
             flushBand(pl);
