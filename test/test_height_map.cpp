@@ -98,6 +98,47 @@ TEST(HeightMap, AMixedPixelIsNoObstacle) {
   EXPECT_NEAR(g.heights[cell(g, veil)], veil.z(), 1e-6);
 }
 
+TEST(HeightMap, AFacesPointsMarkTheCellsBehindIt) {
+  // A box's front face at x = 0.8 m, on a cell border, seen from (0, 0, 1.3):
+  // its plane fitted 1.2 mm in front of it (as range noise leaves it). Its
+  // points mark the box's cells (x 0.80-0.81), not the floor's before it.
+  SweepResult s;
+  Plane floor;
+  floor.id = 0;
+  floor.fit.normal = Eigen::Vector3d::UnitZ();
+  floor.area = 4.0;
+  floor.boundary = {{0, -1, 0}, {2, -1, 0}, {2, 1, 0}, {0, 1, 0}};
+  Plane face;
+  face.id = 1;
+  face.fit.normal = -Eigen::Vector3d::UnitX();  // towards the sensor
+  face.fit.offset = -0.7988;
+  face.fit.centroid = Eigen::Vector3d(0.7988, 0.0, 0.15);
+  face.area = 0.06;
+  face.boundary = {{0.7988, -0.1, 0.0}, {0.7988, 0.1, 0.0}, {0.7988, 0.1, 0.3}, {0.7988, -0.1, 0.3}};  // no step
+  SweepLine line;
+  line.origin = Eigen::Vector3f(0.0f, 0.0f, 1.3f);
+  for (int k = 0; k < 20; ++k) line.points.emplace_back(0.7988f + 0.001f * (k % 3), -0.095f + 0.01f * k, 0.15f);
+  s.lines.push_back(line);
+  Segment3 seg;
+  makeSegment3(line.points, std::vector<float>(20, 1.5f), 0, 0, 19, seg);
+  face.members = {0};
+  s.segments = {seg};
+  s.segment_plane = {1};
+  s.planes = {floor, face};
+  HeightMapParams p;
+  p.origin_x = 0.0;
+  p.origin_y = -1.0;
+  p.width = 200;
+  p.height = 200;
+  HeightMapGrid g;
+  buildHeightMap(s, p, g);
+  for (int k = 0; k < 20; ++k) {
+    const int iy = static_cast<int>((-0.095 + 0.01 * k + 1.0) / 0.01);
+    EXPECT_EQ(g.classes[g.index(80, iy)], CellClass::Obstacle) << k;  // x 0.80-0.81
+    EXPECT_EQ(g.classes[g.index(79, iy)], CellClass::Floor) << k;     // x 0.79-0.80
+  }
+}
+
 TEST(HeightMap, AGridBuiltAgainEqualsAFreshOne) {
   // buildHeightMap clears only the last map's box when it is given that map
   // again: a second, smaller sweep into the same grid must equal the grid a

@@ -437,7 +437,11 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     // A point of a plane (a wall, a box's side) is put on its plane: range
     // noise would otherwise spill it into the cells in front.
     Eigen::Vector3d q = point.cast<double>();
-    if (plane) q -= (plane->fit.normal.dot(q) - plane->fit.offset) * plane->fit.normal;
+    // Put on it a face's point lies on the boundary of the cells in front
+    // (free) and behind (what the face bounds): it marks those behind, half
+    // a cell in (the normal points towards the sensor), wherever the fit
+    // puts the face within its cell.
+    if (plane) q -= (plane->fit.normal.dot(q) - plane->fit.offset + 0.5 * p.resolution) * plane->fit.normal;
     const int ix = static_cast<int>(std::floor((q.x() - p.origin_x) * inv_res));
     const int iy = static_cast<int>(std::floor((q.y() - p.origin_y) * inv_res));
     if (ix < 0 || iy < 0 || ix >= p.width || iy >= p.height) return;
