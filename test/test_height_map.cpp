@@ -15,6 +15,18 @@
 
 using namespace tilt_laser_perception::core;
 
+namespace {
+/// A map of 1 cm cells, its cell (0, 0) at (x0, y0) [m].
+HeightMapParams mapParams(double x0, double y0, int width, int height) {
+  HeightMapParams p;
+  p.origin_x = x0;
+  p.origin_y = y0;
+  p.width = width;
+  p.height = height;
+  return p;
+}
+}  // namespace
+
 TEST(HeightMap, FillsPolygonsAndMarksObstacles) {
   SweepResult s;
   Plane floor;
@@ -37,11 +49,7 @@ TEST(HeightMap, FillsPolygonsAndMarksObstacles) {
   SweepLine line;
   for (int i = 0; i < 10; ++i) line.points.emplace_back(1.505f, 0.505f, 0.1f * (i + 1));
   s.lines.push_back(line);
-  HeightMapParams p;
-  p.origin_x = 0.0;
-  p.origin_y = -1.0;
-  p.width = 200;
-  p.height = 200;
+  const HeightMapParams p = mapParams(0.0, -1.0, 200, 200);
   HeightMapGrid g;
   buildHeightMap(s, p, g);
   const auto at = [&](double x, double y) { return g.index(static_cast<int>(x / 0.01), static_cast<int>((y + 1.0) / 0.01)); };
@@ -78,11 +86,7 @@ TEST(HeightMap, AMixedPixelIsNoObstacle) {
   for (int k = 0; k < 5; ++k) line.points.push_back(far + Eigen::Vector3f(0.0f, 0.013f * k, 0.0f));
   line.edges = {{5, EdgeKind::Jump}, {6, EdgeKind::Veil}, {7, EdgeKind::Occluded}};
   s.lines.push_back(line);
-  HeightMapParams p;
-  p.origin_x = 0.0;
-  p.origin_y = -1.0;
-  p.width = 200;
-  p.height = 200;
+  const HeightMapParams p = mapParams(0.0, -1.0, 200, 200);
   const auto cell = [&](const HeightMapGrid& g, const Eigen::Vector3f& q) {
     return g.index(static_cast<int>(q.x() / 0.01), static_cast<int>((q.y() + 1.0) / 0.01));
   };
@@ -125,11 +129,7 @@ TEST(HeightMap, AFacesPointsMarkTheCellsBehindIt) {
   s.segments = {seg};
   s.segment_plane = {1};
   s.planes = {floor, face};
-  HeightMapParams p;
-  p.origin_x = 0.0;
-  p.origin_y = -1.0;
-  p.width = 200;
-  p.height = 200;
+  const HeightMapParams p = mapParams(0.0, -1.0, 200, 200);
   HeightMapGrid g;
   buildHeightMap(s, p, g);
   for (int k = 0; k < 20; ++k) {
@@ -157,11 +157,7 @@ TEST(HeightMap, AGridBuiltAgainEqualsAFreshOne) {
     s.lines.push_back(line);
     return s;
   };
-  HeightMapParams p;
-  p.origin_x = 0.0;
-  p.origin_y = -1.0;
-  p.width = 200;
-  p.height = 200;
+  const HeightMapParams p = mapParams(0.0, -1.0, 200, 200);
   HeightMapGrid reused, fresh;
   buildHeightMap(floorSweep(0.1, 1.9, -0.9, 0.9, 0.0), p, reused);
   const int known_first = static_cast<int>(std::count_if(reused.heights.begin(), reused.heights.end(), [](float h) { return !std::isnan(h); }));
@@ -217,11 +213,7 @@ TEST(HeightMap, APlaneFillsOnlyBetweenItsLinesNotAcrossWhatTheyDidNotSee) {
     }
   }
   s.planes = {floor};
-  HeightMapParams p;
-  p.origin_x = -0.5;
-  p.origin_y = -1.5;
-  p.width = 300;
-  p.height = 300;
+  const HeightMapParams p = mapParams(-0.5, -1.5, 300, 300);
   HeightMapGrid g;
   buildHeightMap(s, p, g);
   const auto at = [&](double x, double y) {
@@ -316,11 +308,7 @@ TEST(HeightMap, WhatLiesBeneathWhereAnOverhangMayGoOnIsUnknown) {
   // crossed its height (passing on to the far floor) the top may go on: the
   // floor seen there from under it is not the 2.5D surface, so unknown.
   const SweepResult table = overhangSweep(0.75, 2.14, 0.0, 0.76, 0.0, false);
-  HeightMapParams p;
-  p.origin_x = 0.5;
-  p.origin_y = -1.0;
-  p.width = 400;
-  p.height = 200;
+  const HeightMapParams p = mapParams(0.5, -1.0, 400, 200);
   HeightMapGrid g;
   buildHeightMap(table, p, g);
   const auto at = [&](double x, double y) {
@@ -356,11 +344,7 @@ TEST(HeightMap, ACornerItsLinesCutIsTheCornerOfItsEdges) {
   // chords between their ends cut off (79 cells 0.75 m wrong). Its edges run
   // on straight to the corners, which no line saw; not beyond them.
   const double cx = 2.3, cy = 0.0, yaw = 40.0 * M_PI / 180.0;
-  HeightMapParams p;
-  p.origin_x = 0.5;
-  p.origin_y = -1.5;
-  p.width = 400;
-  p.height = 300;
+  const HeightMapParams p = mapParams(0.5, -1.5, 400, 300);
   HeightMapGrid g;
   buildHeightMap(overhangSweep(0.75, cx, cy, 0.76, 40.0, false, 0.025), p, g);
   int under = 0, wrong = 0, beyond = 0, invented = 0;
