@@ -435,12 +435,12 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   };
   const auto mark = [&](const Eigen::Vector3f& point, const Plane* plane) {
     // A point of a plane (a wall, a box's side) is put on its plane: range
-    // noise would otherwise spill it into the cells in front.
+    // noise would otherwise spill it into the cells in front. There it lies
+    // on the border between the cells in front (free) and those behind
+    // (what the face bounds): it marks those behind, half a cell in (the
+    // normal points towards the sensor), wherever the fit puts the face
+    // within its cell.
     Eigen::Vector3d q = point.cast<double>();
-    // Put on it a face's point lies on the boundary of the cells in front
-    // (free) and behind (what the face bounds): it marks those behind, half
-    // a cell in (the normal points towards the sensor), wherever the fit
-    // puts the face within its cell.
     if (plane) q -= (plane->fit.normal.dot(q) - plane->fit.offset + 0.5 * p.resolution) * plane->fit.normal;
     const int ix = static_cast<int>(std::floor((q.x() - p.origin_x) * inv_res));
     const int iy = static_cast<int>(std::floor((q.y() - p.origin_y) * inv_res));
