@@ -215,6 +215,17 @@ def test_cardboard_box_gives_its_four_faces(tmp_path):
     assert sum(1 for n in normals if abs(n[1]) > math.cos(math.radians(12))) == 2, grouped
     w = re.search(r"largest wall \(normal \d+ deg, [-\d.]+ m\): (\d+) points, ([\d.]+) % in plane", first)
     assert w and float(w.group(2)) >= 90.0, grouped
+    # The second sweep starts at the reversal: its first 200 lines lie within
+    # 2 cm of each other, a strip that fixes no normal and took the bottom and
+    # the wall beside it alike. Its segments join the planes beside it, so the
+    # bottom is as whole whichever way the lines come (24.2 % forward, 57.6 %
+    # reversed before; 62.6 and 57.6 % since).
+    for extra in ([], ["--reverse"]):
+        text = grouped if not extra else run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf",
+                                             "--room", *extra)
+        second = text.split("sweep 1:")[1]
+        f = re.search(r"floor at z=[-\d.]+ m: \d+ points, ([\d.]+) % in plane", second)
+        assert f and float(f.group(1)) >= 55.0, (extra, text)
 
 
 def test_a_spinning_heads_recording_grouped_each_half_turn(tmp_path):

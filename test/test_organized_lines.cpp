@@ -173,7 +173,8 @@ TEST(OrganizedLines, EachLinesOwnPoseErrorIsEstimated) {
 
 // A floor whose lines are each off by their own pose error (0.4 degrees,
 // 1.4 cm at 2 m): with the noise model's line term the grouping keeps it one
-// plane; without it, it breaks into stripes.
+// plane (98.6 %); without it, it breaks into stripes (88.5 %; 89.8 % since the
+// segments of strips that fix no normal join the planes beside them).
 TEST(Grouping, ALineTermForTheRigsPoseErrorKeepsAFloorOfOffsetLinesWhole) {
   FloorWallImage img;
   std::mt19937 rng(3);
@@ -204,6 +205,6 @@ TEST(Grouping, ALineTermForTheRigsPoseErrorKeepsAFloorOfOffsetLinesWhole) {
   };
   const double without = floorShare(0.0), with = floorShare(0.4);
   std::printf("the floor's largest plane: %.1f %% without the line term, %.1f %% with it\n", 100 * without, 100 * with);
-  EXPECT_GT(with, 0.9);
-  EXPECT_LT(without, with - 0.1);
+  EXPECT_GT(with, 0.95);
+  EXPECT_LT(without, with - 0.05);
 }

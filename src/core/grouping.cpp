@@ -803,19 +803,33 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
 
   // Late joins: pieces of a line that the split cut short (or that came before
   // their plane was seeded) join a plane of their neighbourhood that they fit.
-  for (std::size_t si = 0; si < segs_.size(); ++si) {
+  // So do the segments of a strip whose lines never spread enough to fix a
+  // normal (it makes no plane): at a slow sweep's reversal such a strip takes
+  // the floor and the wall beside it alike (all lie in one scan plane), and
+  // the floor's plane, seeded beyond it, is judged against them here. Once in
+  // the lines' order, and a strip's once more against it, so a plane takes a
+  // run of them from either end.
+  std::vector<char> strip_region(regions_.size(), 0);
+  for (const int ri : cand) strip_region[ri] = spreadAcross(regions_[ri]) <= kPlanarSpread;
+  const auto lateJoin = [&](std::size_t si, bool strips_only) {
     const int ri = seg_region_[si];
-    if (ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() >= 2) continue;
+    const bool grouped = ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() >= 2;
+    const bool strip = grouped && strip_region[ri];
+    if ((grouped && !strip) || (strips_only && !strip)) return;
     const Segment3& s = segs_[si];
-    if (s.moments.n < 3) continue;
+    if (s.moments.n < 3) return;
     const int best = bestFit(s, cand, ri, 2, true);
-    if (best < 0) continue;
-    if (ri >= 0 && !regions_[ri].dead) {  // a lone segment's region empties
+    if (best < 0 || (strip && !planar(regions_[best]))) return;
+    if (strip) {
+      removeMember(ri, static_cast<int>(si));
+    } else if (ri >= 0 && !regions_[ri].dead) {  // a lone segment's region empties
       regions_[ri].members.clear();
       regions_[ri].dead = true;
     }
     addMember(best, static_cast<int>(si));
-  }
+  };
+  for (std::size_t si = 0; si < segs_.size(); ++si) lateJoin(si, false);
+  for (std::size_t si = segs_.size(); si-- > 0;) lateJoin(si, true);
   if (points) cutAtCreases(cand, points);
 
   // Whether a region may make a plane at all (most are single segments).
