@@ -628,8 +628,7 @@ TEST(OrganizedNoise, ALessNoisyCloudIsJudgedByItsOwnNoise) {
 // points lie up to 0.87 % of range off its chord; with the grouping's growth
 // scaled down to 0.3 % of range beneath it the clutter's box faces (the tall
 // box's side, 254 points) joined no plane: of its faces of 100 points or
-// more, 7 correct instead of the defaults' 9 (8 since the segments of strips
-// that fix no normal join the planes beside them).
+// more, 7 correct instead of the defaults' 9.
 TEST(OrganizedNoise, TheGroupingHoldsWhatTheSplitLetsThrough) {
   const Eigen::Vector3d head = sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").axis_origin;
   std::vector<int> faces;
@@ -644,7 +643,7 @@ TEST(OrganizedNoise, TheGroupingHoldsWhatTheSplitLetsThrough) {
   EXPECT_EQ(correctFaces(pts, faces, 100, head, sp, gp), 9);
   core::GroupingParams beneath = gp;
   beneath.dist_ratio = 0.2 * core::GroupingParams().dist_ratio;
-  EXPECT_EQ(correctFaces(pts, faces, 100, head, sp, beneath), 8);
+  EXPECT_EQ(correctFaces(pts, faces, 100, head, sp, beneath), 7);
 }
 
 TEST(OrganizedNoise, PointsWithoutARangeAreLeftOut) {
