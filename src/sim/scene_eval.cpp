@@ -106,7 +106,8 @@ std::uint64_t cellKey(long i, long j) {
 MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Eigen::Isometry3d& base,
                   const SceneEvalOptions& o, const HitCells* hits = nullptr, double seen_after = 0.0,
                   const Scene* scene = nullptr, const Eigen::Vector3d* eye = nullptr,
-                  const std::vector<core::Plane>* planes = nullptr, const std::vector<float>* sigmas = nullptr) {
+                  const std::vector<core::Plane>* planes = nullptr, const std::vector<float>* sigmas = nullptr,
+                  const HitCells* on_surface = nullptr) {
   // The steppable layer against the truth: a foot centred on the cell rests
   // on one true plane whatever its yaw when the true heights at its centre
   // and on circles of its radius and half of it (16 points) lie within 5 mm
@@ -204,7 +205,12 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   // Step edges. A true step edge: between two cells along x or y the true
   // height rises by obstacle_min_height to max_step_height, flat for 3 cells
   // on each side (a tread's nosing over a floor or a lower tread, not a wall's
-  // foot). The map's edge there: the nearest place along the same line
+  // foot), and in view: points of two of the sweep's lines or more fell on
+  // its higher surface within 10 cm of it along the line and 5 cm across
+  // (`on_surface`,
+  // when given: the first line in each cell, or -1 for two or more; an edge
+  // the sensor did not see, beyond its field of view or in a shadow, no map
+  // can place, nor one line's few points, which fit no plane). The map's edge there: the nearest place along the same line
   // where the higher surface it knows ends towards the lower, within 10 cm
   // (the distance along x or y: for an edge at an angle, more than across
   // it); none within 10 cm counts 10 cm.
@@ -228,6 +234,16 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
         bool flat = true;
         for (int k = 1; k <= 3 && flat; ++k) flat = std::abs(t(-k) - a) < 0.005f && std::abs(t(1 + k) - b) < 0.005f;
         if (!flat) continue;
+        if (on_surface) {
+          double line = -2.0;  // the one line seen so far (-2: none; -1: two or more)
+          for (long k = 1; k <= reach && line != -1.0; ++k)
+            for (long q = -reach / 2; q <= reach / 2 && line != -1.0; ++q) {
+              const long kk = b > a ? k : 1 - k;  // cells on the high side (b's, from 1; a's, from 0)
+              const auto it = on_surface->find(cellKey(i0 + ix + kk * ax + q * ay, j0 + iy + kk * ay + q * ax));
+              if (it != on_surface->end()) line = line == -2.0 || line == it->second ? it->second : -1.0;
+            }
+          if (line != -1.0) continue;
+        }
         // Along the line, where the map's higher surface ends towards the
         // lower: a cell it knows above the mid height beside one it knows
         // below it or does not know (a planner keeps its feet where the map
@@ -395,7 +411,20 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   const Eigen::Vector3d eye = core::meanOrigin(sw);
   std::vector<float> sweep_sigmas;
   core::sweepUncertainty(grid, eye, o.fused, sweep_sigmas);
-  const MapScore single = scoreMap(grid, truth_h, base, o, nullptr, 0.0, &scene, &eye, &sw.planes, &sweep_sigmas);
+  // The map's cells that the sweep's points fell in on their true surface
+  // (within 2 cm of its height): where the sensor saw the surface, and by
+  // which line (its index; -1: two lines or more).
+  HitCells on_surface;
+  for (std::size_t li = 0; li < sw.lines.size(); ++li)
+    for (const Eigen::Vector3f& q : sw.lines[li].points) {
+      if (!q.allFinite()) continue;
+      const long i = std::lround(std::floor(q.x() / hp.resolution)), j = std::lround(std::floor(q.y() / hp.resolution));
+      if (!(std::abs(q.z() - truth_h.at(i, j)) <= 0.02)) continue;
+      const auto [it, fresh] = on_surface.emplace(cellKey(i, j), static_cast<double>(li));
+      if (!fresh && it->second != static_cast<double>(li)) it->second = -1.0;
+    }
+  const MapScore single =
+      scoreMap(grid, truth_h, base, o, nullptr, 0.0, &scene, &eye, &sw.planes, &sweep_sigmas, &on_surface);
   e.steppable_precision = single.steppable_precision;
   e.steppable_recall = single.steppable_recall;
   e.heightmap_rmse_m = single.rmse;

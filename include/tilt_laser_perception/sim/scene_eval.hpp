@@ -96,9 +96,10 @@ struct SweepEval {
   double overconfident = 0.0;  ///< the same of the sweep's own map (its sigmas: core::sweepUncertainty)
   /// The sweep map's step edges against the true ones (a true edge: a rise
   /// between obstacle_min_height and max_step_height with 3 cm flat on each
-  /// side; the map's: where its heights pass the mid height along the same
-  /// row or column, within 10 cm, else 10 cm): median and 95th percentile
-  /// over each centimetre of edge [m]; NaN when none is in view.
+  /// side, in view: two of the sweep's lines fell on its higher surface
+  /// within 10 cm of it; the map's: where its heights pass the mid height
+  /// along the same row or column, within 10 cm, else 10 cm): median and 95th
+  /// percentile over each centimetre of edge [m]; NaN when none is in view.
   double step_edge_median_m = std::numeric_limits<double>::quiet_NaN(), step_edge_p95_m = step_edge_median_m;
   /// The share of the sweep's known cells whose true surface the sensor could
   /// not see (hidden by something nearer along its ray): cells invented.
