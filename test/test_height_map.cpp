@@ -369,6 +369,71 @@ TEST(HeightMap, ACornerItsLinesCutIsTheCornerOfItsEdges) {
   EXPECT_GT(under, 3000);
 }
 
+TEST(HeightMap, AStripStopsWhereTheNextLineSawSomethingElse) {
+  // Two lines of floor 10 cm apart (x 2.0 and 2.1), beams along y 1 cm
+  // apart. The first passed beside a box; the second hit its face over
+  // y -0.14..0.14 (points 0.3 m up: in no segment), its floor in two pieces.
+  // The strips from the first line's one piece to each of them covered the
+  // box's footprint between the lines with floor (a dark box's top in the
+  // clutter scene 0.5 m wrong); they stop where the second line's pieces
+  // end. Where the gap holds no returns, or points on the floor, it is no
+  // obstacle and the floor is drawn across it.
+  const auto sweepWith = [](int gap) {  // 0: a box's face, 1: no returns, 2: loose points on the floor
+    SweepResult s;
+    Plane floor;
+    floor.id = 0;
+    floor.area = 1.0;
+    floor.fit.normal = Eigen::Vector3d::UnitZ();
+    floor.fit.offset = 0.0;
+    floor.fit.centroid = Eigen::Vector3d(2.05, 0, 0);
+    const Eigen::Vector3d o(0.0, 0.0, 1.4);
+    for (const double x : {2.0, 2.1}) {
+      SweepLine line;
+      line.origin = o.cast<float>();
+      const int li = static_cast<int>(s.lines.size());
+      for (int b = 0; b <= 100; ++b) {
+        const double y = -0.5 + 0.01 * b;
+        const bool in_gap = li == 1 && b > 35 && b < 65;
+        const float nan = std::numeric_limits<float>::quiet_NaN();
+        line.points.push_back(!in_gap ? Eigen::Vector3f(x, y, 0.0f)
+                              : gap == 0 ? Eigen::Vector3f(x - 0.05, y, 0.3f)
+                              : gap == 1 ? Eigen::Vector3f(nan, nan, nan)
+                                         : Eigen::Vector3f(x, y, 0.004f));
+      }
+      for (const auto& [b0, b1] : li == 0 ? std::vector<std::pair<int, int>>{{0, 100}}
+                                          : std::vector<std::pair<int, int>>{{0, 35}, {65, 100}}) {
+        Segment3 seg;
+        makeSegment3(line.points, std::vector<float>(line.points.size(), 2.0f), li, b0, b1, seg);
+        seg.origin = o;
+        floor.members.push_back(static_cast<int>(s.segments.size()));
+        s.segments.push_back(seg);
+        s.segment_plane.push_back(0);
+      }
+      s.lines.push_back(line);
+    }
+    s.planes = {floor};
+    return s;
+  };
+  const HeightMapParams p = mapParams(1.5, -1.0, 100, 200);
+  HeightMapGrid g;
+  const auto floorBetween = [&](double y0, double y1) {  // cells of floor between the lines (x 2.02-2.08)
+    int n = 0;
+    for (double x = 2.025; x < 2.08; x += 0.01)
+      for (double y = y0 + 0.005; y < y1; y += 0.01)
+        n += std::abs(g.heights[g.index(static_cast<int>((x - p.origin_x) / 0.01),
+                                        static_cast<int>((y - p.origin_y) / 0.01))]) < 0.01f;
+    return n;
+  };
+  buildHeightMap(sweepWith(0), p, g);
+  EXPECT_EQ(floorBetween(-0.13, 0.13), 0);   // the box's footprint: not floor
+  EXPECT_EQ(floorBetween(-0.45, -0.16), 174);  // beside it, floor (6 x 29 cells)
+  EXPECT_EQ(floorBetween(0.16, 0.45), 174);
+  for (const int gap : {1, 2}) {
+    buildHeightMap(sweepWith(gap), p, g);
+    EXPECT_EQ(floorBetween(-0.13, 0.13), 6 * 26) << "gap " << gap;
+  }
+}
+
 TEST(HeightMap, AFootOfAnyYawFitsWhereItsDiscLiesOnOnePlane) {
   // 2 x 2 m of floor (plane 0), a tread 0.15 m up over x 1.0-1.3 (plane 1),
   // an obstacle cell at (0.505, 0.505), a cell nobody saw at (1.705, 1.705),

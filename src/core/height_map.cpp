@@ -365,6 +365,25 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       pc.beside = besideMap(s, p) && besideMap(e, p);
     }
     fillCutCorners(pl);
+    // Where a piece's line crossed the plane at a beam inside it (the first
+    // return from there on, stepping by `step`), or `end` when none is.
+    const auto atBeam = [&](const Piece& pc, int beam, int step, const Eigen::Vector2d& end) {
+      const std::vector<Eigen::Vector3f>& pts = sweep.lines[pc.line].points;
+      const Eigen::Vector3d& origin = sweep.segments[mem[pc.first]].origin;
+      for (int k = beam; k > pc.beam_first && k < pc.beam_last && k < static_cast<int>(pts.size()); k += step)
+        if (pts[k].allFinite()) return onPlane(pts[k].cast<double>(), origin);
+      return end;
+    };
+    // Whether a line's returns between two beams (exclusive) include one off
+    // the plane by more than obstacle_min_height.
+    const auto sawOther = [&](const Plane& pl, int li, int from, int to) {
+      const std::vector<Eigen::Vector3f>& pts = sweep.lines[li].points;
+      for (int k = std::max(0, from + 1); k < to && k < static_cast<int>(pts.size()); ++k)
+        if (pts[k].allFinite() &&
+            std::abs(pl.fit.normal.dot(pts[k].cast<double>()) - pl.fit.offset) > p.obstacle_min_height)
+          return true;
+      return false;
+    };
     // [a, b) and [b, c): the pieces of two successive lines of the plane.
     std::size_t a = 0;
     Eigen::Vector2d x;
@@ -408,8 +427,26 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
           }
           // Two chords that cross (a spinning head's lines, where its axis
           // meets the plane): two triangles from the crossing.
-          if (crossed) rings = {{a0, x, a1}, {x, b0, b1}};
-          else rings = {{a0, b0, b1, a1}};
+          if (crossed) {
+            rings = {{a0, x, a1}, {x, b0, b1}};
+          } else {
+            // A piece that meets two on the other line ends, towards the gap
+            // between them, where that line's piece ends when the other line
+            // saw something else in the gap (a box that the first line passed
+            // beside): a strip drawn on to the piece's own end would cover
+            // it. (A gap of points on the plane, or of no returns, is not
+            // something else.)
+            const auto cut = [&](std::size_t k, std::size_t lo, std::size_t hi, std::size_t g0, std::size_t g1) {
+              bool partner = false;
+              for (std::size_t m = lo; m < hi && !partner; ++m) partner = side(k, m);
+              return partner && sawOther(pl, pieces[g0].line, pieces[g0].beam_last, pieces[g1].beam_first);
+            };
+            const Piece &pi = pieces[i], &pj = pieces[j];
+            rings = {{j > b && cut(i, b, j, j - 1, j) ? atBeam(pi, pj.beam_first, +1, a0) : a0,
+                      j + 1 < c && cut(i, j + 1, c, j, j + 1) ? atBeam(pi, pj.beam_last, -1, b0) : b0,
+                      i + 1 < b && cut(j, i + 1, b, i, i + 1) ? atBeam(pj, pi.beam_last, -1, b1) : b1,
+                      i > a && cut(j, a, i, i - 1, i) ? atBeam(pj, pi.beam_first, +1, a1) : a1}};
+          }
           for (const auto& r : rings) fillRings(pl, {r}, fillRow);
         }
       for (const int ch : chain_of)  // chains that end on this line
