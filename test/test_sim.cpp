@@ -770,6 +770,24 @@ TEST(SceneEval, AStepEdgeIsJudgedWhereTheSweepSawItsHigherSurface) {
   }
 }
 
+TEST(SceneEval, TheSteppableLayerAgreesWithTheTruth) {
+  // Of the cells the map calls steppable, those where a foot truly fits; of
+  // those where one truly fits and the map knows every cell of its disc
+  // (the layer refuses a foot over an unknown cell), those it calls
+  // steppable. Judged by 17 of the disc's cells instead, a disc over a
+  // cell the map leaves unknown between them counted as missed: table_room's
+  // recall was 92 %.
+  for (const char* scene : {"stairs", "table_room"}) {
+    sim::SceneEvalOptions o;
+    o.scene = scene;
+    o.sweeps = 3;
+    for (const auto& e : sim::evaluateScene(o)) {
+      EXPECT_GE(e.steppable_precision, 0.99) << scene;
+      EXPECT_GE(e.steppable_recall, 0.95) << scene;
+    }
+  }
+}
+
 TEST(SceneEval, EachSweepShowsItsLinesPoseError) {
   // The grouper's diagnostic: the noise model's line term measured on each
   // sweep (core::estimateLineSigma). A real rig's errors (encoder steps,

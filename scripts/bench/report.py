@@ -100,7 +100,7 @@ class Report:
             "-: no step edge in view); invented: the share of the map's known "
             "cells whose true surface the sensor could not see (a ray cast to it); steppable: of the cells the map "
             "says a 0.24 x 0.14 m foot of any yaw fits, the share where it truly does (a disc of its radius on one "
-            "true plane within 15 degrees), and of those where it truly does (the disc known), the share found; latency: from the sweep's last line to its planes and map (median sweep); lines reversed: "
+            "true plane within 15 degrees), and of those where it truly does and the map knows every cell of the disc, the share found; latency: from the sweep's last line to its planes and map (median sweep); lines reversed: "
             "the same sweeps with each sweep's lines grouped last first (`--reverse`: the result should not depend "
             "on the order); calibrated: the realistic rig's walkable RMSE with the head calibrated as a user would "
             "(`make_scene_bag --scene stairs --realistic --duration 10 --seed 7`, `calibrate` on it, `evaluate "

@@ -115,6 +115,17 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   std::vector<std::uint8_t> steppable;
   if (planes) core::steppableCells(grid, *planes, o.foot, steppable);
   const double rc = std::floor(o.foot.radius() / grid.params.resolution);  // whole cells within the disc
+  // Along each row, the map's unknown cells before each cell (the row's
+  // width + 1 counts): whether a foot's disc is all known, row by row.
+  std::vector<int> unknown_before;
+  if (!steppable.empty()) {
+    const int w = grid.params.width;
+    unknown_before.assign(static_cast<std::size_t>(w + 1) * grid.params.height, 0);
+    for (int y = 0; y < grid.params.height; ++y)
+      for (int x = 0; x < w; ++x)
+        unknown_before[static_cast<std::size_t>(y) * (w + 1) + x + 1] =
+            unknown_before[static_cast<std::size_t>(y) * (w + 1) + x] + !std::isfinite(grid.heights[grid.index(x, y)]);
+  }
   // The k-th of the disc's 17 points (8 on its rim, 8 half way, its centre), in cells.
   const auto discPoint = [&](int k, long& di, long& dj) {
     const double ang = (k % 8) * M_PI / 4.0, rad = k == 16 ? 0.0 : (k < 8 ? rc : 0.5 * rc);
@@ -180,13 +191,11 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
       }
       if (!steppable.empty() && ix % 2 == 0 && iy % 2 == 0) {  // one cell in four
         // Recall over the cells whose foot's disc the map knows (at its 17 points).
-        bool seen = true;
-        for (int k = 0; k < 17 && seen; ++k) {
-          long di, dj;
-          discPoint(k, di, dj);
-          const long x = ix + di, y = iy + dj;
-          seen = x >= 0 && y >= 0 && x < hp.width && y < hp.height &&
-                 std::isfinite(grid.heights[grid.index(static_cast<int>(x), static_cast<int>(y))]);
+        bool seen = ix >= rc && iy >= rc && ix + rc < hp.width && iy + rc < hp.height;
+        for (long dy = -static_cast<long>(rc); dy <= rc && seen; ++dy) {  // every cell of the disc known
+          const long hw = std::lround(std::floor(std::sqrt(rc * rc - static_cast<double>(dy * dy))));
+          const std::size_t row = static_cast<std::size_t>(iy + dy) * (hp.width + 1);
+          seen = unknown_before[row + ix + hw + 1] == unknown_before[row + ix - hw];
         }
         const bool m = steppable[grid.index(ix, iy)] == 1, tr = seen && trulySteppable(i0 + ix, j0 + iy);
         map_step += m;

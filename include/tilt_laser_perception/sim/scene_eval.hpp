@@ -107,7 +107,8 @@ struct SweepEval {
   /// The steppable layer (core::steppableCells, SceneEvalOptions::foot)
   /// against the truth (a foot's disc on one true plane within its tilt):
   /// the share of the cells it calls steppable that are, and of the truly
-  /// steppable cells it knows (within the map's radius) that it finds.
+  /// steppable cells whose foot's disc it knows cell by cell (within the
+  /// map's radius) that it finds.
   double steppable_precision = 0.0, steppable_recall = 0.0;
   double front_coverage = 0.0;        ///< the sweep's own map, in front of the feet (front_length x front_width)
   double fused_rmse_m = 0.0, fused_coverage = 0.0, fused_front_coverage = 0.0;  ///< the same of the fused map
