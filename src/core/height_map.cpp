@@ -1,4 +1,5 @@
 #include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/core/noise_model.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -552,7 +553,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       out.classes[c] = CellClass::Unknown;
     }
   };
-  std::vector<Eigen::Vector2d> near_side, far_side;
+  std::vector<Eigen::Vector2d> near_side, far_side, line_side, edge_side;
   const auto flushBand = [&](const Plane& pl) {
     if (near_side.size() >= 2) {
       rings.assign(1, near_side);
@@ -561,6 +562,53 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     }
     near_side.clear();
     far_side.clear();
+  };
+  // Where the next line's ray ended at the plane's height (within
+  // obstacle_min_height: a riser's top under a landing's front edge), the
+  // edge is seen there and the surface goes on to it: the strip between
+  // the outermost line and those ends is the plane's (what the map held
+  // there beneath it was seen from under it, through an open side).
+  // Only cells that hold no surface at its height there: unknown, beneath it
+  // by more than obstacle_min_height (seen from under it), or points of what
+  // stands beneath its edge (a riser's top); another plane that meets it
+  // (a landing beyond a ramp's last line) keeps its cells.
+  const auto extendRow = [&](const Plane& pl, int iy, double xa, double xb) {
+    const int ix0 = std::max(0, static_cast<int>(std::ceil((xa - p.origin_x) * inv_res - 0.5)));
+    const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xb - p.origin_x) * inv_res - 0.5)));
+    const Eigen::Vector3d& n = pl.fit.normal;
+    const double y = p.origin_y + (iy + 0.5) * p.resolution;
+    for (int ix = ix0; ix <= ix1; ++ix) {
+      const std::size_t c = out.index(ix, iy);
+      const float z = static_cast<float>((pl.fit.offset - n.x() * (p.origin_x + (ix + 0.5) * p.resolution) - n.y() * y) / n.z());
+      const float old = out.heights[c];
+      if (!(std::isnan(old) || old < z - p.obstacle_min_height ||
+            (out.classes[c] == CellClass::Obstacle && old <= z)))
+        continue;
+      out.heights[c] = z;
+      out.plane_ids[c] = pl.id;
+      out.classes[c] = std::abs(z - out.floor_height) <= p.floor_tolerance ? CellClass::Floor : CellClass::Step;
+      inBox(ix, ix, iy);
+    }
+  };
+  const NoiseModel range_noise;  // the data sheet's range noise
+  // (Each beam's reach from the line no farther than its neighbours': a lone
+  // point beyond the noise's bound draws no spike.)
+  std::vector<double> reach;
+  const auto flushEdge = [&](const Plane& pl) {
+    const std::size_t n = line_side.size();
+    if (n >= 2) {
+      reach.resize(n);
+      for (std::size_t k = 0; k < n; ++k) reach[k] = (edge_side[k] - line_side[k]).norm();
+      rings.assign(1, line_side);
+      for (std::size_t k = n; k-- > 0;) {
+        const double r = std::min({reach[k], reach[k > 0 ? k - 1 : k], reach[k + 1 < n ? k + 1 : k]});
+        rings[0].push_back(reach[k] > 0.0 ? Eigen::Vector2d(line_side[k] + (edge_side[k] - line_side[k]) * (r / reach[k]))
+                                          : line_side[k]);
+      }
+      fillRings(pl, rings, extendRow);
+    }
+    line_side.clear();
+    edge_side.clear();
   };
   const int line_count = static_cast<int>(sweep.lines.size());
   for (const Plane& pl : sweep.planes) {
@@ -581,6 +629,24 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         for (int b = s.first; b <= std::min(s.last, static_cast<int>(lo.points.size()) - 1); ++b) {
           bool open = lo.points[b].allFinite() && passed(f, next, b, to) && to.allFinite();
           Eigen::Vector2d from;
+          const Eigen::Vector3f* q = next >= 0 && next < line_count &&
+                                             b < static_cast<int>(sweep.lines[next].points.size())
+                                         ? &sweep.lines[next].points[b]
+                                         : nullptr;
+          if (lo.points[b].allFinite() && q && q->allFinite() &&
+              std::abs(f.normal.dot(q->cast<double>()) - f.offset) <= p.obstacle_min_height) {
+            // (The ray's end is known to within the range noise along it:
+            // the strip stops short of it by that noise at the one
+            // significance level, towards the line.)
+            const Eigen::Vector2d on = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults).head<2>();
+            const Eigen::Vector2d e = q->cast<double>().head<2>();
+            const double pull = range_noise.significance * range_noise.rangeSigma((*q - sweep.lines[next].origin).norm());
+            const double gap = (on - e).norm();
+            line_side.push_back(on);
+            edge_side.push_back(gap > pull ? Eigen::Vector2d(e + (on - e) * (pull / gap)) : on);
+          } else {
+            flushEdge(pl);
+          }
           if (open) {
             from = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults).head<2>();
             const Eigen::Vector2d band = to - from;
@@ -595,6 +661,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
           far_side.push_back(to);
         }
         flushBand(pl);
+        flushEdge(pl);
       }
     }
   }
