@@ -484,6 +484,42 @@ TEST(HeightMap, ALandingGoesOnToItsEdgeWhereTheLineBeforeSawIt) {
   for (double x = 1.705; x < 1.79; x += 0.01) EXPECT_NEAR(at(x), 0.0, 1e-3) << x;  // the floor before the riser
 }
 
+TEST(HeightMap, AFootRestsAcrossAShallowCreaseNotAcrossAStepOrASteepOne) {
+  // Floor (plane 0) for x < 1 m, beyond it a second plane (1) from the
+  // floor's height: a ramp of 5.7 degrees (over the foot's radius of 0.139 m
+  // it leaves the floor by 1.4 cm, within the foot's 2 cm of roughness), a
+  // ramp of 12 degrees (3 cm), or a level plane 3 cm up (a step).
+  const auto across = [](double slope_deg, float step) {
+    HeightMapGrid g;
+    g.params.resolution = 0.01;
+    g.params.origin_x = g.params.origin_y = 0.0;
+    g.params.width = g.params.height = 200;
+    g.heights.assign(200 * 200, 0.0f);
+    g.plane_ids.assign(200 * 200, 0);
+    g.classes.assign(200 * 200, CellClass::Floor);
+    const double t = std::tan(slope_deg * M_PI / 180.0);
+    for (int y = 0; y < 200; ++y)
+      for (int x = 100; x < 200; ++x) {
+        const std::size_t c = g.index(x, y);
+        g.heights[c] = step + static_cast<float>(t * ((x + 0.5) * 0.01 - 1.0));
+        g.plane_ids[c] = 1;
+        g.classes[c] = CellClass::Step;
+      }
+    Plane floor, other;
+    floor.id = 0;
+    other.id = 1;
+    other.fit.normal = Eigen::Vector3d(-std::sin(slope_deg * M_PI / 180.0), 0.0, std::cos(slope_deg * M_PI / 180.0));
+    other.fit.offset = step * other.fit.normal.z() - 1.0 * other.fit.normal.x();
+    std::vector<std::uint8_t> s;
+    steppableCells(g, {floor, other}, FootParams(), s);
+    return s[g.index(100, 100)];  // a foot centred on the crease
+  };
+  EXPECT_EQ(across(5.7, 0.0f), 1);
+  EXPECT_EQ(across(12.0, 0.0f), 0);
+  EXPECT_EQ(across(0.0, 0.03f), 0);
+  EXPECT_EQ(across(0.0, 0.0f), 1);  // two planes of one level (a floor cut in two)
+}
+
 TEST(HeightMap, AFootOfAnyYawFitsWhereItsDiscLiesOnOnePlane) {
   // 2 x 2 m of floor (plane 0), a tread 0.15 m up over x 1.0-1.3 (plane 1),
   // an obstacle cell at (0.505, 0.505), a cell nobody saw at (1.705, 1.705),

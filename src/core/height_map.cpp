@@ -690,6 +690,25 @@ void steppableCells(const HeightMapGrid& g, const std::vector<Plane>& planes, co
     const std::int32_t id = g.plane_ids[c];
     return std::isfinite(g.heights[c]) && g.classes[c] != CellClass::Obstacle && id >= 0 && id <= max_id && good[id];
   };
+  // Two good planes that meet at a shallow crease hold a foot across them as
+  // one plane within its roughness: over the foot's radius the one leaves
+  // the other by radius x tan(their angle), which with the step between
+  // them where they meet stays within max_roughness.
+  const int np = max_id + 1;
+  std::vector<float> slack(static_cast<std::size_t>(np) * np, -1.0f);  // roughness left for a step; < 0: none
+  for (const Plane& a : planes)
+    for (const Plane& b : planes) {
+      if (a.id < 0 || b.id < 0 || !good[a.id] || !good[b.id]) continue;
+      const double c = std::min(1.0, std::abs(a.fit.normal.dot(b.fit.normal)));
+      slack[static_cast<std::size_t>(a.id) * np + b.id] =
+          static_cast<float>(foot.max_roughness - foot.radius() * std::sqrt(1.0 - c * c) / std::max(c, 1e-9));
+    }
+  const auto apart = [&](std::size_t c, std::size_t n) {  // a foot may not reach from cell c over to n
+    const std::int32_t a = g.plane_ids[c], b = g.plane_ids[n];
+    if (a == b) return false;
+    if (a < 0 || b < 0 || a > max_id || b > max_id) return true;
+    return !(std::abs(g.heights[c] - g.heights[n]) <= slack[static_cast<std::size_t>(a) * np + b]);
+  };
   // Cells no foot may reach over: not good, or next to a cell of another
   // plane (one of every two cells across a boundary). Only the map's box
   // holds known cells: beyond it everything is unknown, so bad.
@@ -709,9 +728,8 @@ void steppableCells(const HeightMapGrid& g, const std::vector<Plane>& planes, co
     std::int16_t last = 0;  // cells since the last bad one (the box's edge is one)
     for (int x = 0; x < bw; ++x) {
       const std::size_t c = g.index(bx0 + x, by0 + y);
-      const std::int32_t id = g.plane_ids[c];
-      const bool bad = !goodCell(c) || (bx0 + x + 1 < w && g.plane_ids[c + 1] != id) ||
-                       (by0 + y + 1 < h && g.plane_ids[c + static_cast<std::size_t>(w)] != id);
+      const bool bad = !goodCell(c) || (bx0 + x + 1 < w && apart(c, c + 1)) ||
+                       (by0 + y + 1 < h && apart(c, c + static_cast<std::size_t>(w)));
       row += bad;
       S(x + 1, y + 1) = S(x + 1, y) + row;
       last = bad ? 0 : static_cast<std::int16_t>(std::min(last + 1, 30000));

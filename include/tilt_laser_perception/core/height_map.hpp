@@ -80,7 +80,9 @@ struct FootParams {
 /// Steppable cells: a foot centred on the cell rests on one plane whatever
 /// its yaw. Every cell within the foot's radius (the disc all its yaws
 /// cover) is known, of one walkable plane (not an obstacle), that plane
-/// within max_tilt_deg of level and max_roughness rms. Per cell, row-major:
+/// within max_tilt_deg of level and max_roughness rms; two such planes that
+/// meet at a crease shallow enough (radius x tan(angle) plus the step
+/// between them within max_roughness) count as one. Per cell, row-major:
 /// 1 steppable, 0 not, 255 unknown (the cell itself unknown). `planes` are
 /// those the map's plane ids name (Plane::id).
 void steppableCells(const HeightMapGrid& grid, const std::vector<Plane>& planes, const FootParams& foot,
