@@ -539,19 +539,22 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   // within that band (on a riser or a box's side under the edge) the edge is
   // seen, and nothing changes; where it ends beyond the band or under the
   // plane, it passed the edge.
-  const auto hideRow = [&](const Plane& pl, int iy, double xa, double xb) {
+  // The cells of a row between xa and xb, with the plane's height at each.
+  const auto rowCells = [&](const Plane& pl, int iy, double xa, double xb, const auto& visit) {
     const int ix0 = std::max(0, static_cast<int>(std::ceil((xa - p.origin_x) * inv_res - 0.5)));
     const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xb - p.origin_x) * inv_res - 0.5)));
     const Eigen::Vector3d& n = pl.fit.normal;
     const double y = p.origin_y + (iy + 0.5) * p.resolution;
-    for (int ix = ix0; ix <= ix1; ++ix) {
-      const std::size_t c = out.index(ix, iy);
-      const double z = (pl.fit.offset - n.x() * (p.origin_x + (ix + 0.5) * p.resolution) - n.y() * y) / n.z();
-      if (!(out.heights[c] < z - p.obstacle_min_height)) continue;
+    for (int ix = ix0; ix <= ix1; ++ix)
+      visit(ix, out.index(ix, iy), (pl.fit.offset - n.x() * (p.origin_x + (ix + 0.5) * p.resolution) - n.y() * y) / n.z());
+  };
+  const auto hideRow = [&](const Plane& pl, int iy, double xa, double xb) {
+    rowCells(pl, iy, xa, xb, [&](int, std::size_t c, double z) {
+      if (!(out.heights[c] < z - p.obstacle_min_height)) return;
       out.heights[c] = nan;
       out.plane_ids[c] = -1;
       out.classes[c] = CellClass::Unknown;
-    }
+    });
   };
   std::vector<Eigen::Vector2d> near_side, far_side, line_side, edge_side;
   const auto flushBand = [&](const Plane& pl) {
@@ -573,22 +576,15 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   // stands beneath its edge (a riser's top); another plane that meets it
   // (a landing beyond a ramp's last line) keeps its cells.
   const auto extendRow = [&](const Plane& pl, int iy, double xa, double xb) {
-    const int ix0 = std::max(0, static_cast<int>(std::ceil((xa - p.origin_x) * inv_res - 0.5)));
-    const int ix1 = std::min(p.width - 1, static_cast<int>(std::floor((xb - p.origin_x) * inv_res - 0.5)));
-    const Eigen::Vector3d& n = pl.fit.normal;
-    const double y = p.origin_y + (iy + 0.5) * p.resolution;
-    for (int ix = ix0; ix <= ix1; ++ix) {
-      const std::size_t c = out.index(ix, iy);
-      const float z = static_cast<float>((pl.fit.offset - n.x() * (p.origin_x + (ix + 0.5) * p.resolution) - n.y() * y) / n.z());
-      const float old = out.heights[c];
-      if (!(std::isnan(old) || old < z - p.obstacle_min_height ||
-            (out.classes[c] == CellClass::Obstacle && old <= z)))
-        continue;
+    rowCells(pl, iy, xa, xb, [&](int ix, std::size_t c, double zd) {
+      const float z = static_cast<float>(zd), old = out.heights[c];
+      if (!(std::isnan(old) || old < z - p.obstacle_min_height || (out.classes[c] == CellClass::Obstacle && old <= z)))
+        return;
       out.heights[c] = z;
       out.plane_ids[c] = pl.id;
       out.classes[c] = std::abs(z - out.floor_height) <= p.floor_tolerance ? CellClass::Floor : CellClass::Step;
       inBox(ix, ix, iy);
-    }
+    });
   };
   const NoiseModel range_noise;  // the data sheet's range noise
   // (Each beam's reach from the line no farther than its neighbours': a lone
