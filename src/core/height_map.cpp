@@ -706,7 +706,7 @@ void steppableCells(const HeightMapGrid& g, const std::vector<Plane>& planes, co
     return !(std::abs(g.heights[c] - g.heights[n]) <= slack[static_cast<std::size_t>(a) * np + b]);
   };
   // Cells no foot may reach over: not good, or next to a cell of another
-  // plane (one of every two cells across a boundary). Only the map's box
+  // plane it may not rest across (one of every two cells across a boundary). Only the map's box
   // holds known cells: beyond it everything is unknown, so bad.
   // (A grid buildHeightMap did not make may keep no box: the whole map.)
   const bool boxed = g.box_x1 >= g.box_x0 && g.box_y1 >= g.box_y0;
