@@ -377,7 +377,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     };
     // Whether a line's returns between two beams (exclusive) include one off
     // the plane by more than obstacle_min_height.
-    const auto sawOther = [&](const Plane& pl, int li, int from, int to) {
+    const auto sawOther = [&](int li, int from, int to) {
       const std::vector<Eigen::Vector3f>& pts = sweep.lines[li].points;
       for (int k = std::max(0, from + 1); k < to && k < static_cast<int>(pts.size()); ++k)
         if (pts[k].allFinite() &&
@@ -440,7 +440,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
             const auto cut = [&](std::size_t k, std::size_t lo, std::size_t hi, std::size_t g0, std::size_t g1) {
               bool partner = false;
               for (std::size_t m = lo; m < hi && !partner; ++m) partner = side(k, m);
-              return partner && sawOther(pl, pieces[g0].line, pieces[g0].beam_last, pieces[g1].beam_first);
+              return partner && sawOther(pieces[g0].line, pieces[g0].beam_last, pieces[g1].beam_first);
             };
             const Piece &pi = pieces[i], &pj = pieces[j];
             rings = {{j > b && cut(i, b, j, j - 1, j) ? atBeam(pi, pj.beam_first, +1, a0) : a0,

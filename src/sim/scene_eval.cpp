@@ -91,6 +91,8 @@ struct MapScore {
 
 /// The map cells (world indices at one resolution) that points fell in, and when.
 using HitCells = std::unordered_map<std::uint64_t, double>;
+/// The map cells that points fell in, and by which line (-1: two or more).
+using LineCells = std::unordered_map<std::uint64_t, int>;
 std::uint64_t cellKey(long i, long j) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(i)) << 32) | static_cast<std::uint32_t>(j);
 }
@@ -107,7 +109,7 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
                   const SceneEvalOptions& o, const HitCells* hits = nullptr, double seen_after = 0.0,
                   const Scene* scene = nullptr, const Eigen::Vector3d* eye = nullptr,
                   const std::vector<core::Plane>* planes = nullptr, const std::vector<float>* sigmas = nullptr,
-                  const HitCells* on_surface = nullptr) {
+                  const LineCells* on_surface = nullptr) {
   // The steppable layer against the truth: a foot centred on the cell rests
   // on one true plane whatever its yaw when the true heights at its centre
   // and on circles of its radius and half of it (16 points) lie within 5 mm
@@ -118,6 +120,9 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   // Along each row, the map's unknown cells before each cell (the row's
   // width + 1 counts): whether a foot's disc is all known, row by row.
   std::vector<int> unknown_before;
+  std::vector<long> half;  // the disc's half width at each row from its centre
+  for (long dy = 0; dy <= static_cast<long>(rc); ++dy)
+    half.push_back(std::lround(std::floor(std::sqrt(rc * rc - static_cast<double>(dy * dy)))));
   if (!steppable.empty()) {
     const int w = grid.params.width;
     unknown_before.assign(static_cast<std::size_t>(w + 1) * grid.params.height, 0);
@@ -190,10 +195,10 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
         if (sigmas) beyond_2_sigma += !(std::abs(h - t) <= 2.0 * (*sigmas)[grid.index(ix, iy)]);
       }
       if (!steppable.empty() && ix % 2 == 0 && iy % 2 == 0) {  // one cell in four
-        // Recall over the cells whose foot's disc the map knows (at its 17 points).
+        // Recall over the cells whose foot's disc the map knows, every cell of it.
         bool seen = ix >= rc && iy >= rc && ix + rc < hp.width && iy + rc < hp.height;
-        for (long dy = -static_cast<long>(rc); dy <= rc && seen; ++dy) {  // every cell of the disc known
-          const long hw = std::lround(std::floor(std::sqrt(rc * rc - static_cast<double>(dy * dy))));
+        for (long dy = -static_cast<long>(rc); dy <= rc && seen; ++dy) {
+          const long hw = half[std::labs(dy)];
           const std::size_t row = static_cast<std::size_t>(iy + dy) * (hp.width + 1);
           seen = unknown_before[row + ix + hw + 1] == unknown_before[row + ix - hw];
         }
@@ -216,11 +221,11 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   // on each side (a tread's nosing over a floor or a lower tread, not a wall's
   // foot), and in view: points of two of the sweep's lines or more fell on
   // its higher surface within 10 cm of it along the line and 5 cm across
-  // (`on_surface`,
-  // when given: the first line in each cell, or -1 for two or more; an edge
-  // the sensor did not see, beyond its field of view or in a shadow, no map
-  // can place, nor one line's few points, which fit no plane). The map's edge there: the nearest place along the same line
-  // where the higher surface it knows ends towards the lower, within 10 cm
+  // (`on_surface`, when given; an edge the sensor did not see, beyond its
+  // field of view or in a shadow, no map can place, nor one line's few
+  // points, which fit no plane). The map's edge there: the nearest place
+  // along the same line where the higher surface it knows ends towards the
+  // lower, within 10 cm
   // (the distance along x or y: for an edge at an angle, more than across
   // it); none within 10 cm counts 10 cm.
   std::vector<double> edge_err;
@@ -244,14 +249,14 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
         for (int k = 1; k <= 3 && flat; ++k) flat = std::abs(t(-k) - a) < 0.005f && std::abs(t(1 + k) - b) < 0.005f;
         if (!flat) continue;
         if (on_surface) {
-          double line = -2.0;  // the one line seen so far (-2: none; -1: two or more)
-          for (long k = 1; k <= reach && line != -1.0; ++k)
-            for (long q = -reach / 2; q <= reach / 2 && line != -1.0; ++q) {
+          int line = -2;  // the one line seen so far (-2: none; -1: two or more)
+          for (long k = 1; k <= reach && line != -1; ++k)
+            for (long q = -reach / 2; q <= reach / 2 && line != -1; ++q) {
               const long kk = b > a ? k : 1 - k;  // cells on the high side (b's, from 1; a's, from 0)
               const auto it = on_surface->find(cellKey(i0 + ix + kk * ax + q * ay, j0 + iy + kk * ay + q * ax));
-              if (it != on_surface->end()) line = line == -2.0 || line == it->second ? it->second : -1.0;
+              if (it != on_surface->end()) line = line == -2 || line == it->second ? it->second : -1;
             }
-          if (line != -1.0) continue;
+          if (line != -1) continue;
         }
         // Along the line, where the map's higher surface ends towards the
         // lower: a cell it knows above the mid height beside one it knows
@@ -423,14 +428,14 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   // The map's cells that the sweep's points fell in on their true surface
   // (within 2 cm of its height): where the sensor saw the surface, and by
   // which line (its index; -1: two lines or more).
-  HitCells on_surface;
-  for (std::size_t li = 0; li < sw.lines.size(); ++li)
+  LineCells on_surface;
+  for (int li = 0; li < static_cast<int>(sw.lines.size()); ++li)
     for (const Eigen::Vector3f& q : sw.lines[li].points) {
       if (!q.allFinite()) continue;
       const long i = std::lround(std::floor(q.x() / hp.resolution)), j = std::lround(std::floor(q.y() / hp.resolution));
       if (!(std::abs(q.z() - truth_h.at(i, j)) <= 0.02)) continue;
-      const auto [it, fresh] = on_surface.emplace(cellKey(i, j), static_cast<double>(li));
-      if (!fresh && it->second != static_cast<double>(li)) it->second = -1.0;
+      const auto [it, fresh] = on_surface.emplace(cellKey(i, j), li);
+      if (!fresh && it->second != li) it->second = -1;
     }
   const MapScore single =
       scoreMap(grid, truth_h, base, o, nullptr, 0.0, &scene, &eye, &sw.planes, &sweep_sigmas, &on_surface);
