@@ -207,14 +207,34 @@ std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> Sc
   return {lo, hi};
 }
 
-bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b, double limit) const {
+double ScanLineGrouper::lineTilt(const Region& r) const {
+  // The line term moves each of its lines by about R line_sigma, common to
+  // the line's points; over `lines` lines spread by spread(1) across them
+  // that tilts the fit by that over spread(1) sqrt(lines) (one sigma).
+  return p_.significance * p_.line_sigma * (r.fit.centroid - sensor_).norm() /
+         (std::max(r.fit.spread(1), 1e-9) * std::sqrt(static_cast<double>(std::max(r.lines, 1))));
+}
+
+bool ScanLineGrouper::endsOn(const Segment3& s, const Region& r) const {
+  const double tilt = lineTilt(r);
+  const double thr = kEndsOn * p_.threshold(s.range);
+  for (const Eigen::Vector3d& e : {s.start, s.end})
+    if (std::abs(r.fit.normal.dot(e) - r.fit.offset) > thr + tilt * (e - r.fit.centroid).norm()) return false;
+  return true;
+}
+
+bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b, double limit, const Region* ra,
+                            const Region* rb) const {
   if (a.empty() || b.empty()) return false;
   const int gap = p_.max_line_gap + 1;
   const auto [a0, a1] = membersIn(a, segs_[b.front()].line - gap, segs_[b.back()].line + gap);
   for (auto i = a0; i != a1; ++i) {
     const auto [b0, b1] = membersIn(b, segs_[*i].line - gap, segs_[*i].line + gap);
     for (auto j = b0; j != b1; ++j)
-      if (near(segs_[*i], segs_[*j], limit)) return true;
+      if (near(segs_[*i], segs_[*j], limit) &&
+          (!ra || (!confirmed(*ra) && !confirmed(*rb)) || (confirmed(*ra) && endsOn(segs_[*j], *ra)) ||
+           (confirmed(*rb) && endsOn(segs_[*i], *rb))))
+        return true;
   }
   return false;
 }
@@ -270,10 +290,10 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bo
     const double d1 = std::abs(r.fit.normal.dot(s.start) - r.fit.offset);
     const double d2 = std::abs(r.fit.normal.dot(s.end) - r.fit.offset);
     const double dc = std::abs(r.fit.normal.dot(s.moments.mean()) - r.fit.offset);
-    if (std::max(d1, d2) > 1.5 * thr) return false;
+    if (!endsOn(s, r)) return false;
     if (s.length() > 0.15 && std::abs((s.end - s.start).normalized().dot(r.fit.normal)) > std::sin(p_.angle_deg * kDeg))
       return false;
-    const double tol = p_.centroidTolerance(s.range);
+    const double tol = p_.centroidTolerance(s.range) + lineTilt(r) * (s.moments.mean() - r.fit.centroid).norm();
     if (dc > tol) {
       // Beyond the lines that fixed it a plane's place is as uncertain as its
       // tilt (a face seen by three lines, its fourth a backlash off): a
@@ -785,7 +805,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
         if (!lines_near && !seam) continue;
         if (!planesAgree(ra, rb)) continue;
         const double limit = p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm();
-        if (!(lines_near && touch(ra.members, rb.members, limit)) &&
+        if (!(lines_near && touch(ra.members, rb.members, limit, &ra, &rb)) &&
             !(seam && touchAcrossSeam(ra.members, rb.members, limit)))
           continue;
         absorb(a, b);

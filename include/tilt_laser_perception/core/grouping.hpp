@@ -208,7 +208,19 @@ class ScanLineGrouper {
   }
   /// Whether a member of `a` comes within `limit` of a member of `b` on a
   /// line within max_line_gap + 1 of its own (both segment indices, increasing).
-  bool touch(const std::vector<int>& a, const std::vector<int>& b, double limit) const;
+  /// Given the regions, where one of them is confirmed, only where a segment
+  /// of one ends on a confirmed one's plane (endsOn): where they meet, it would
+  /// have joined that plane as it grew.
+  bool touch(const std::vector<int>& a, const std::vector<int>& b, double limit, const Region* ra = nullptr,
+             const Region* rb = nullptr) const;
+  /// Whether both ends of s lie within kEndsOn thresholds of r's plane, and
+  /// beyond its centroid within what the line term leaves its tilt
+  /// uncertain (lineTilt) over the distance: a segment joins a plane only so.
+  bool endsOn(const Segment3& s, const Region& r) const;
+  static constexpr double kEndsOn = 1.5;
+  /// The tangent of the tilt the line term leaves r's plane uncertain by
+  /// (significance sigmas; 0 without a line term).
+  double lineTilt(const Region& r) const;
   /// cyclic_lines: whether a member of `a` in the sweep's first lines and one
   /// of `b` in its last come within `limit` of each other (or the converse).
   bool touchAcrossSeam(const std::vector<int>& a, const std::vector<int>& b, double limit) const;
