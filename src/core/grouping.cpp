@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <queue>
+#include <tuple>
 #include <sstream>
 
 namespace tilt_laser_perception {
@@ -333,7 +335,7 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bo
   return true;
 }
 
-bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
+bool ScanLineGrouper::planesAgree(const Region& a, const Region& b, double* score) const {
   // One surface when their normals agree, each one's plane reaches the
   // other's centroid within what its width leaves uncertain, and the plane
   // of their union explains each of them (every part's rms about it within
@@ -358,8 +360,9 @@ bool ScanLineGrouper::planesAgree(const Region& a, const Region& b) const {
   Moments3 m = a.moments;
   m += b.moments;
   const PlaneFit f = fitPlane(m);
-  const double tol = kUnionRms * thr;
-  return rmsAbout(a.moments, f) < tol && rmsAbout(b.moments, f) < tol;
+  const double worst = std::max(rmsAbout(a.moments, f), rmsAbout(b.moments, f));
+  if (score) *score = worst / thr;
+  return worst < kUnionRms * thr;
 }
 
 void ScanLineGrouper::addMember(int region, int si) {
@@ -786,32 +789,47 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
       if (!regions_[i].dead && regions_[i].members.size() >= 2) cand.push_back(static_cast<int>(i));
   };
   collect();
-  // Planes that meet and agree merge (a floor cut in two by a box, a plane that restarted after a gap).
-  bool merged = true;
-  while (merged) {
-    merged = false;
-    for (std::size_t ia = 0; ia < cand.size(); ++ia) {
-      const int a = cand[ia];
-      if (regions_[a].dead) continue;
-      for (std::size_t ib = ia + 1; ib < cand.size(); ++ib) {
-        const int b = cand[ib];
-        if (regions_[b].dead) continue;
-        const Region& ra = regions_[a];
-        const Region& rb = regions_[b];
-        const bool lines_near =
-            ra.first_line <= rb.last_line + p_.max_line_gap + 1 && rb.first_line <= ra.last_line + p_.max_line_gap + 1;
-        const bool seam = p_.cyclic_lines && std::min(ra.first_line, rb.first_line) <= p_.max_line_gap &&
-                          std::max(ra.last_line, rb.last_line) >= segs_.back().line - p_.max_line_gap;
-        if (!lines_near && !seam) continue;
-        if (!planesAgree(ra, rb)) continue;
-        const double limit = p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm();
-        if (!(lines_near && touch(ra.members, rb.members, limit, &ra, &rb)) &&
-            !(seam && touchAcrossSeam(ra.members, rb.members, limit)))
-          continue;
-        absorb(a, b);
-        merged = true;
-      }
+  // Planes that meet and agree merge (a floor cut in two by a box, a plane
+  // that restarted after a gap): the pair whose union explains its parts
+  // best first (the worst part's rms about the union over the threshold),
+  // so that the regions' order does not choose which of a region's
+  // neighbours it takes.
+  std::vector<int> version(regions_.size(), 0);  // a pair judged before its regions changed is judged again
+  struct Candidate {
+    double score;
+    int a, b, va, vb;  // a < b: b merges into a
+    bool operator<(const Candidate& o) const {  // the queue's top: the least score (then the first regions)
+      return std::tie(score, a, b) > std::tie(o.score, o.a, o.b);
     }
+  };
+  std::priority_queue<Candidate> queue;
+  const auto judge = [&](int a, int b) {
+    if (a > b) std::swap(a, b);
+    const Region& ra = regions_[a];
+    const Region& rb = regions_[b];
+    const bool lines_near =
+        ra.first_line <= rb.last_line + p_.max_line_gap + 1 && rb.first_line <= ra.last_line + p_.max_line_gap + 1;
+    const bool seam = p_.cyclic_lines && std::min(ra.first_line, rb.first_line) <= p_.max_line_gap &&
+                      std::max(ra.last_line, rb.last_line) >= segs_.back().line - p_.max_line_gap;
+    if (!lines_near && !seam) return;
+    double score = 0.0;
+    if (!planesAgree(ra, rb, &score)) return;
+    const double limit = p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm();
+    if (!(lines_near && touch(ra.members, rb.members, limit, &ra, &rb)) &&
+        !(seam && touchAcrossSeam(ra.members, rb.members, limit)))
+      return;
+    queue.push({score, a, b, version[a], version[b]});
+  };
+  for (std::size_t ia = 0; ia < cand.size(); ++ia)
+    for (std::size_t ib = ia + 1; ib < cand.size(); ++ib) judge(cand[ia], cand[ib]);
+  while (!queue.empty()) {
+    const Candidate c = queue.top();
+    queue.pop();
+    if (regions_[c.a].dead || regions_[c.b].dead || version[c.a] != c.va || version[c.b] != c.vb) continue;
+    absorb(c.a, c.b);
+    ++version[c.a];
+    for (const int o : cand)
+      if (o != c.a && !regions_[o].dead) judge(c.a, o);
   }
   settlePairs();
   collect();

@@ -228,7 +228,9 @@ class ScanLineGrouper {
   int firstSegmentOf(int line) const;
   /// line_start_ and spans_ again from segs_ (after segments were cut).
   void indexSegments();
-  bool planesAgree(const Region& a, const Region& b) const;
+  /// Whether a and b are one surface; `score`: the worst part's rms about
+  /// their union's plane over the distance threshold (how well it explains them).
+  bool planesAgree(const Region& a, const Region& b, double* score = nullptr) const;
   void absorb(int into, int from);
   void addMember(int region, int segment);     // keeps members sorted, refits
   void removeMember(int region, int segment);  // refits
