@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <queue>
-#include <tuple>
 #include <sstream>
+#include <tuple>
 
 namespace tilt_laser_perception {
 namespace core {
