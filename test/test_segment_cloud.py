@@ -127,7 +127,7 @@ def test_synpeb_by_its_own_noise_with_the_defaults():
     # SynPEB's test_100 (../shared/data/synpeb): about 1 mm of range noise. By
     # default segment_cloud measures it and judges the cloud by it (9 of 13
     # planes correct, noise 0); with this head's tolerances (--noise off) faces
-    # that meet at 24 degrees share planes (7, noise 2).
+    # that meet at 24 degrees share planes (5, noise 2).
     cloud = os.path.join(SHARED, "synpeb", "test_100.pcd")
     if not os.path.exists(cloud):
         import pytest
@@ -148,10 +148,11 @@ def test_the_nodding_sick_scans_ceiling_with_the_line_term():
     # 3DTK's scan000.3d (../shared/data/real/3dtk): each line's own tilt error
     # puts the ceiling's lines centimetres off one plane. Without the line term
     # the ceiling comes out in stripes (largest plane 32 %); with the term
-    # estimated from the scan (0.33 deg) its largest plane holds 66 %, 51 % with
-    # the lines in the other order.
-    # The 80 % in at most two planes is
-    # not reached (doc/notes/noise_model.md says why).
+    # estimated from the scan (0.33 deg), which each plane's tilt and the
+    # merge allow for, its largest plane holds 55 % and the same within 1 %
+    # with the lines in the other order (before the tilt held it, 66 % one way
+    # and 51 % the other), and 80 % of it lies in planes. The 80 % in
+    # at most two planes is not reached (doc/notes/noise_model.md says why).
     scan = os.path.join(SHARED, "real", "3dtk", "scan000.3d")
     if not os.path.exists(scan):
         import pytest
@@ -166,7 +167,9 @@ def test_the_nodding_sick_scans_ceiling_with_the_line_term():
     assert 0.25 < sigma < 0.5, outs["estimated"]
     est, off, rev = (surface_shares(outs[k]) for k in ("estimated", "off", "reversed"))
     assert off["ceiling"][0] < 40.0, outs["off"]
-    assert est["ceiling"][0] > 60.0 and rev["ceiling"][0] > 45.0, outs["estimated"] + outs["reversed"]
+    assert est["ceiling"][0] > 50.0 and rev["ceiling"][0] > 50.0, outs["estimated"] + outs["reversed"]
+    assert abs(est["ceiling"][0] - rev["ceiling"][0]) < 1.0, outs["estimated"] + outs["reversed"]
+    assert est["ceiling"][1] >= 80.0, outs["estimated"]
     assert est["floor"][0] > 55.0 and rev["floor"][0] > 55.0, outs["estimated"] + outs["reversed"]
 
 
