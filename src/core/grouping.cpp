@@ -213,6 +213,7 @@ double ScanLineGrouper::lineTilt(const Region& r) const {
   // The line term moves each of its lines by about R line_sigma, common to
   // the line's points; over `lines` lines spread by spread(1) across them
   // that tilts the fit by that over spread(1) sqrt(lines) (one sigma).
+  if (p_.line_sigma <= 0.0) return 0.0;
   return p_.significance * p_.line_sigma * (r.fit.centroid - sensor_).norm() /
          (std::max(r.fit.spread(1), 1e-9) * std::sqrt(static_cast<double>(std::max(r.lines, 1))));
 }
@@ -228,14 +229,14 @@ bool ScanLineGrouper::endsOn(const Segment3& s, const Region& r) const {
 bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b, double limit, const Region* ra,
                             const Region* rb) const {
   if (a.empty() || b.empty()) return false;
+  const bool ca = ra && confirmed(*ra), cb = rb && confirmed(*rb);
   const int gap = p_.max_line_gap + 1;
   const auto [a0, a1] = membersIn(a, segs_[b.front()].line - gap, segs_[b.back()].line + gap);
   for (auto i = a0; i != a1; ++i) {
     const auto [b0, b1] = membersIn(b, segs_[*i].line - gap, segs_[*i].line + gap);
     for (auto j = b0; j != b1; ++j)
-      if (near(segs_[*i], segs_[*j], limit) &&
-          (!ra || (!confirmed(*ra) && !confirmed(*rb)) || (confirmed(*ra) && endsOn(segs_[*j], *ra)) ||
-           (confirmed(*rb) && endsOn(segs_[*i], *rb))))
+      if (near(segs_[*i], segs_[*j], limit) && ((!ca && !cb) || (ca && endsOn(segs_[*j], *ra)) ||
+                                                (cb && endsOn(segs_[*i], *rb))))
         return true;
   }
   return false;

@@ -208,15 +208,18 @@ class ScanLineGrouper {
   }
   /// Whether a member of `a` comes within `limit` of a member of `b` on a
   /// line within max_line_gap + 1 of its own (both segment indices, increasing).
-  /// Given the regions, where one of them is confirmed, only where a segment
-  /// of one ends on a confirmed one's plane (endsOn): where they meet, it would
-  /// have joined that plane as it grew.
+  /// Given the regions (both or neither), where one of them is confirmed,
+  /// only where a segment of one ends on a confirmed one's plane (endsOn):
+  /// where they meet, it would have joined that plane as it grew.
   bool touch(const std::vector<int>& a, const std::vector<int>& b, double limit, const Region* ra = nullptr,
              const Region* rb = nullptr) const;
   /// Whether both ends of s lie within kEndsOn thresholds of r's plane, and
   /// beyond its centroid within what the line term leaves its tilt
   /// uncertain (lineTilt) over the distance: a segment joins a plane only so.
   bool endsOn(const Segment3& s, const Region& r) const;
+  /// A segment's end is one beam, as noisy as any point, where its fit is
+  /// not: it may lie 1.5 distance thresholds off (the growth's factor since
+  /// its start, set by hand, not yet from the noise model).
   static constexpr double kEndsOn = 1.5;
   /// The tangent of the tilt the line term leaves r's plane uncertain by
   /// (significance sigmas; 0 without a line term).
