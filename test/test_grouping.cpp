@@ -326,6 +326,34 @@ TEST(Grouping, TwoPlanesMeetingAtACreaseStayApart) {
   EXPECT_EQ(planes[0].segments + planes[1].segments, 18);
 }
 
+TEST(Grouping, TwoPlanesAFewDegreesApartEachFixedByItsLinesStayTwo) {
+  // A floor (x 0.70..1.45, sixteen lines) and a ramp rising from x = 1.5
+  // (sixteen lines 4 cm apart), as the DRC's sloping cinder blocks meet the
+  // level ones. At 10 and 6 degrees they are within the merge angle (15),
+  // and their union is within the union tolerance of each. But each is fixed
+  // by its lines far better than that: one sigma of the floor's normal 0.66
+  // degrees, the ramp's 0.83 (each line one measurement, 1 cm: the range
+  // noise whose three sigmas the threshold's floor is), so they agree only
+  // within 3.6 degrees (chi-square, 2 degrees of freedom, three sigmas), and
+  // stay two. A 3-degree ramp is within that: one plane.
+  for (const double slope : {10.0, 6.0, 3.0}) {
+    std::vector<std::vector<Segment3>> lines = floorLines(16, 0.7, 0.05, 0.0, -1.0, 1.0);
+    for (int k = 0; k < 16; ++k) {
+      const double x = 1.5 + 0.04 * k, z = 0.04 * k * std::tan(slope * M_PI / 180.0);
+      lines.push_back({seg(16 + k, 100, {x, -1.0, z}, {x, 1.0, z})});
+    }
+    ScanLineGrouper g;
+    const auto planes = group(lines, g);
+    ASSERT_EQ(planes.size(), slope > 5.0 ? 2u : 1u) << slope << " degrees: " << planes[0].segments << " lines, tilted "
+                                                     << std::acos(std::abs(planes[0].fit.normal.z())) * 180 / M_PI;
+    int segments = 0;
+    for (const auto& p : planes) segments += p.segments;
+    EXPECT_GE(segments, 31) << slope << " degrees";  // (a crease line may go either way or neither)
+    if (planes.size() == 2u)
+      EXPECT_NEAR(std::acos(std::abs(planes[0].fit.normal.dot(planes[1].fit.normal))) * 180 / M_PI, slope, 0.5);
+  }
+}
+
 TEST(Grouping, AStepGivesTreadRiserAndFloor) {
   // Floor z = 0 for x < 1.4, riser x = 1.4 (z 0..0.15, lines at z 0.05 and 0.10), tread z = 0.15 beyond.
   std::vector<std::vector<Segment3>> lines = floorLines(9, 1.0, 0.05, 0.0, -0.6, 0.6);

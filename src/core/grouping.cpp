@@ -8,6 +8,8 @@
 #include <sstream>
 #include <tuple>
 
+#include <Eigen/Eigenvalues>
+
 namespace tilt_laser_perception {
 namespace core {
 
@@ -218,6 +220,33 @@ double ScanLineGrouper::lineTilt(const Region& r) const {
          (std::max(r.fit.spread(1), 1e-9) * std::sqrt(static_cast<double>(std::max(r.lines, 1))));
 }
 
+Eigen::Matrix3d ScanLineGrouper::normalCovariance(const Region& r) const {
+  // A plane fitted to n independent measurements of sigma, spread by s_k
+  // along its in-plane axes e_k, has a normal uncertain by sigma / (s_k
+  // sqrt(n)) towards e_k. What is independent on a rig is a line (the line
+  // term moves all its points together), and lines closer to each other
+  // than one sigma across count as one (a slow sweep repeats a servo reading;
+  // no fit can tell them apart): at most 1 + width / sigma of them.
+  const double spread = r.fit.spread(1);
+  if (!(spread > 0.0) || r.lines < 2) return Eigen::Matrix3d::Identity() * kUnknownNormal;
+  const double range = (r.fit.centroid - sensor_).norm();
+  // Each line's place: the range noise (the threshold's floor is
+  // `significance` sigmas of it) and the line term, or what the plane's own
+  // points show where that is more (a surface that is not quite flat).
+  const double sigma = std::max(
+      std::hypot(std::max(p_.dist_min, p_.dist_ratio * range) / p_.significance, p_.line_sigma * range), r.fit.rms);
+  const double lines = std::min(static_cast<double>(r.lines), 1.0 + std::sqrt(12.0) * spread / sigma);
+  const Eigen::Vector3d c = r.moments.mean();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(r.moments.ss / r.moments.n - c * c.transpose());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int k = 1; k < 3; ++k) {
+    const Eigen::Vector3d e = es.eigenvectors().col(k);
+    cov += e * e.transpose() * (sigma * sigma / (lines * std::max(es.eigenvalues()(k), 1e-12)));
+  }
+  return cov;
+}
+
 bool ScanLineGrouper::endsOn(const Segment3& s, const Region& r) const {
   const double tilt = lineTilt(r);
   const double thr = kEndsOn * p_.threshold(s.range);
@@ -351,6 +380,17 @@ bool ScanLineGrouper::planesAgree(const Region& a, const Region& b, double* scor
   // piece of one line, which joins a strip as it would join by itself).
   if (!planar(a) && !planar(b) && a.lines > 1 && b.lines > 1) return false;
   if (std::abs(a.fit.normal.dot(b.fit.normal)) < std::cos(p_.merge_angle_deg * kDeg)) return false;
+  // Within that, their normals must agree within both fits' uncertainty
+  // (normalCovariance): chi-square of 2 degrees of freedom, whose quantile
+  // at tail p is -2 ln p, at the significance level.
+  const Eigen::Vector3d nb = a.fit.normal.dot(b.fit.normal) < 0.0 ? Eigen::Vector3d(-b.fit.normal) : b.fit.normal;
+  const Eigen::Vector3d mid = (a.fit.normal + nb).normalized();
+  Eigen::Matrix<double, 3, 2> across;
+  across.col(0) = mid.unitOrthogonal();
+  across.col(1) = mid.cross(across.col(0));
+  const Eigen::Vector2d d = across.transpose() * (nb - a.fit.normal);
+  const Eigen::Matrix2d cov = across.transpose() * (normalCovariance(a) + normalCovariance(b)) * across;
+  if (d.dot(cov.ldlt().solve(d)) > -2.0 * std::log(std::erfc(p_.significance / std::sqrt(2.0)))) return false;
   const auto slack = [&](const Region& r) {
     const double width = std::sqrt(12.0) * r.fit.spread(1);  // across its lines, for points spread evenly
     return width > 0.0 ? 2.0 * thr / width : 1e3;             // tan of the tilt it leaves uncertain

@@ -47,7 +47,7 @@ struct GroupingParams {
   double centroid_min = 0.012;    ///< a segment's centroid must lie this close to the plane [m] ...
   double centroid_ratio = 0.005;  ///< ... plus this much of its range [1] (a fitted line is far less noisy than its points)
   double angle_deg = 12.0;        ///< a segment may leave its plane by this much [deg]
-  double merge_angle_deg = 15.0;  ///< planes whose normals differ by less may merge (if their union fits each of them); a crease cut's new plane differs by more [deg]
+  double merge_angle_deg = 15.0;  ///< the most two planes' normals may differ by and merge, however uncertain (within it the noise model judges them, and their union must fit each); a crease cut's new plane differs by more [deg]
   double seed_gap = 0.25;         ///< largest distance between the segments that seed a plane [m] (+ 5 % of range)
   int beam_slack = 8;             ///< beam index slack for overlap between adjacent lines
   int max_line_gap = 2;           ///< a plane stays open this many lines without a new segment
@@ -224,6 +224,11 @@ class ScanLineGrouper {
   /// The tangent of the tilt the line term leaves r's plane uncertain by
   /// (significance sigmas; 0 without a line term).
   double lineTilt(const Region& r) const;
+  /// The covariance of r's normal [rad^2], from the noise model: each of its
+  /// lines one measurement of the surface (see the definition).
+  Eigen::Matrix3d normalCovariance(const Region& r) const;
+  /// A normal's variance where a region fixes none (one line, no spread).
+  static constexpr double kUnknownNormal = 1e6;
   /// cyclic_lines: whether a member of `a` in the sweep's first lines and one
   /// of `b` in its last come within `limit` of each other (or the converse).
   bool touchAcrossSeam(const std::vector<int>& a, const std::vector<int>& b, double limit) const;
