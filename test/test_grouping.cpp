@@ -331,11 +331,12 @@ TEST(Grouping, TwoPlanesAFewDegreesApartEachFixedByItsLinesStayTwo) {
   // (sixteen lines 4 cm apart), as the DRC's sloping cinder blocks meet the
   // level ones. At 10 and 6 degrees they are within the merge angle (15),
   // and their union is within the union tolerance of each. But each is fixed
-  // by its lines far better than that: one sigma of the floor's normal 0.66
-  // degrees, the ramp's 0.83 (each line one measurement, 1 cm: the range
-  // noise whose three sigmas the threshold's floor is), so they agree only
-  // within 3.6 degrees (chi-square, 2 degrees of freedom, three sigmas), and
-  // stay two. A 3-degree ramp is within that: one plane.
+  // by its lines far better than that: one sigma of the floor's normal 0.62
+  // degrees (1 cm a line over its lines' spread of 0.23 m and sqrt(16): the
+  // range noise whose three sigmas the threshold's floor is), the ramp's
+  // about 0.9 (1.2 cm at its 2.3 m, over 0.19 m), so they agree only within
+  // 3.8 degrees (chi-square, 2 degrees of freedom, three sigmas), and stay
+  // two. A 3-degree ramp is within that: one plane.
   for (const double slope : {10.0, 6.0, 3.0}) {
     std::vector<std::vector<Segment3>> lines = floorLines(16, 0.7, 0.05, 0.0, -1.0, 1.0);
     for (int k = 0; k < 16; ++k) {
