@@ -442,46 +442,57 @@ TEST(HeightMap, ALandingGoesOnToItsEdgeWhereTheLineBeforeSawIt) {
   // side) and filled x 1.7-2.0: between the riser and the landing's first
   // line the map said floor, 0.8 m below the landing. The landing goes on to
   // the edge that line saw (less the range noise at the one significance
-  // level, 3 cm); the floor in front of the riser stays.
-  SweepResult s;
-  Plane floor, landing;
-  floor.id = 0;
-  floor.area = 1.0;
-  floor.fit.normal = Eigen::Vector3d::UnitZ();
-  floor.fit.offset = 0.0;
-  floor.fit.centroid = Eigen::Vector3d(1.85, 0, 0);
-  landing = floor;
-  landing.id = 1;
-  landing.fit.offset = 0.8;
-  landing.fit.centroid = Eigen::Vector3d(2.0, 0, 0.8);
-  const Eigen::Vector3d o(0.0, 0.0, 1.4);
-  // (line x, its height, the plane it is on: -1 none)
-  const std::vector<std::tuple<double, double, int>> lines = {
-      {1.7, 0.0, 0}, {2.0, 0.0, 0}, {1.8, 0.78, -1}, {1.9, 0.8, 1}, {2.0, 0.8, 1}, {2.1, 0.8, 1}};
-  for (const auto& [x, z, plane] : lines) {
-    SweepLine line;
-    line.origin = o.cast<float>();
-    const int li = static_cast<int>(s.lines.size());
-    for (int b = 0; b <= 100; ++b) line.points.emplace_back(x, -0.5 + 0.01 * b, z);
-    if (plane >= 0) {
-      Segment3 seg;
-      makeSegment3(line.points, std::vector<float>(line.points.size(), 2.0f), li, 0, 100, seg);
-      seg.origin = o;
-      (plane == 0 ? floor : landing).members.push_back(static_cast<int>(s.segments.size()));
-      s.segments.push_back(seg);
-      s.segment_plane.push_back(plane);
+  // level, 3 cm); the floor in front of the riser stays. Then the same with
+  // the landing's outline through that line's ends 2 cm beyond the line (as
+  // range noise at its two end beams puts them): the strip from the line
+  // begins the line's own range noise inside the plane, and the cells
+  // between the line and the outline are the landing's, not the floor's.
+  for (const bool outline : {false, true}) {
+    SweepResult s;
+    Plane floor, landing;
+    floor.id = 0;
+    floor.area = 1.0;
+    floor.fit.normal = Eigen::Vector3d::UnitZ();
+    floor.fit.offset = 0.0;
+    floor.fit.centroid = Eigen::Vector3d(1.85, 0, 0);
+    landing = floor;
+    landing.id = 1;
+    landing.fit.offset = 0.8;
+    landing.fit.centroid = Eigen::Vector3d(2.0, 0, 0.8);
+    if (outline)  // each line's entry in order, then each line's exit back
+      landing.boundary = {{1.92, -0.5, 0.8}, {2.0, -0.5, 0.8}, {2.1, -0.5, 0.8},
+                          {2.1, 0.5, 0.8},   {2.0, 0.5, 0.8},  {1.92, 0.5, 0.8}};
+    const Eigen::Vector3d o(0.0, 0.0, 1.4);
+    // (line x, its height, the plane it is on: -1 none)
+    const std::vector<std::tuple<double, double, int>> lines = {
+        {1.7, 0.0, 0}, {2.0, 0.0, 0}, {1.8, 0.78, -1}, {1.9, 0.8, 1}, {2.0, 0.8, 1}, {2.1, 0.8, 1}};
+    for (const auto& [x, z, plane] : lines) {
+      SweepLine line;
+      line.origin = o.cast<float>();
+      const int li = static_cast<int>(s.lines.size());
+      for (int b = 0; b <= 100; ++b) line.points.emplace_back(x, -0.5 + 0.01 * b, z);
+      if (plane >= 0) {
+        Segment3 seg;
+        makeSegment3(line.points, std::vector<float>(line.points.size(), 2.0f), li, 0, 100, seg);
+        seg.origin = o;
+        (plane == 0 ? floor : landing).members.push_back(static_cast<int>(s.segments.size()));
+        s.segments.push_back(seg);
+        s.segment_plane.push_back(plane);
+      }
+      s.lines.push_back(line);
     }
-    s.lines.push_back(line);
+    s.planes = {floor, landing};
+    const HeightMapParams p = mapParams(1.5, -1.0, 100, 200);
+    HeightMapGrid g;
+    buildHeightMap(s, p, g);
+    for (int row = 60; row < 140; ++row) {  // y -0.4 .. 0.4
+      const auto at = [&](double x) { return g.heights[g.index(static_cast<int>((x - p.origin_x) / 0.01), row)]; };
+      for (double x = 1.845; x < 1.96; x += 0.01)  // the landing, not the floor under it
+        EXPECT_NEAR(at(x), 0.8, 1e-3) << x << " row " << row << (outline ? " outline" : "");
+      for (double x = 1.705; x < 1.79; x += 0.01)  // the floor before the riser
+        EXPECT_NEAR(at(x), 0.0, 1e-3) << x << " row " << row << (outline ? " outline" : "");
+    }
   }
-  s.planes = {floor, landing};
-  const HeightMapParams p = mapParams(1.5, -1.0, 100, 200);
-  HeightMapGrid g;
-  buildHeightMap(s, p, g);
-  const auto at = [&](double x) {
-    return g.heights[g.index(static_cast<int>((x - p.origin_x) / 0.01), static_cast<int>((0.005 - p.origin_y) / 0.01))];
-  };
-  for (double x = 1.845; x < 1.9; x += 0.01) EXPECT_NEAR(at(x), 0.8, 1e-3) << x;  // the landing, not the floor under it
-  for (double x = 1.705; x < 1.79; x += 0.01) EXPECT_NEAR(at(x), 0.0, 1e-3) << x;  // the floor before the riser
 }
 
 TEST(HeightMap, AFootRestsAcrossAShallowCreaseNotAcrossAStepOrASteepOne) {

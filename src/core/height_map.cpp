@@ -633,12 +633,16 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
               std::abs(f.normal.dot(q->cast<double>()) - f.offset) <= p.obstacle_min_height) {
             // (The ray's end is known to within the range noise along it:
             // the strip stops short of it by that noise at the one
-            // significance level, towards the line.)
+            // significance level, towards the line. So is the line's own
+            // point: the strip begins that far inside the plane, and no
+            // cell between the line's points and the outline through its
+            // ends is left to what was seen beneath.)
             const Eigen::Vector2d on = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults).head<2>();
             const Eigen::Vector2d e = q->cast<double>().head<2>();
             const double pull = range_noise.significance * range_noise.rangeSigma((*q - sweep.lines[next].origin).norm());
             const double gap = (on - e).norm();
-            line_side.push_back(on);
+            const double back = range_noise.significance * range_noise.rangeSigma((lo.points[b] - lo.origin).norm());
+            line_side.push_back(gap > 0.0 ? Eigen::Vector2d(on + (on - e) * (back / gap)) : on);
             edge_side.push_back(gap > pull ? Eigen::Vector2d(e + (on - e) * (pull / gap)) : on);
           } else {
             flushEdge(pl);
