@@ -443,10 +443,10 @@ TEST(HeightMap, ALandingGoesOnToItsEdgeWhereTheLineBeforeSawIt) {
   // line the map said floor, 0.8 m below the landing. The landing goes on to
   // the edge that line saw (less the range noise at the one significance
   // level, 3 cm); the floor in front of the riser stays. Then the same with
-  // the landing's outline through that line's ends 2 cm beyond the line (as
-  // range noise at its two end beams puts them): the strip from the line
-  // begins the line's own range noise inside the plane, and the cells
-  // between the line and the outline are the landing's, not the floor's.
+  // the landing's outline through that line's ends 1 cm beyond the line (as
+  // range noise at its two end beams may put them): the strip from the line
+  // overlaps the plane by half a cell's diagonal, and the cells between the
+  // line and the outline are the landing's, not the floor's.
   for (const bool outline : {false, true}) {
     SweepResult s;
     Plane floor, landing;
@@ -460,8 +460,8 @@ TEST(HeightMap, ALandingGoesOnToItsEdgeWhereTheLineBeforeSawIt) {
     landing.fit.offset = 0.8;
     landing.fit.centroid = Eigen::Vector3d(2.0, 0, 0.8);
     if (outline)  // each line's entry in order, then each line's exit back
-      landing.boundary = {{1.92, -0.5, 0.8}, {2.0, -0.5, 0.8}, {2.1, -0.5, 0.8},
-                          {2.1, 0.5, 0.8},   {2.0, 0.5, 0.8},  {1.92, 0.5, 0.8}};
+      landing.boundary = {{1.91, -0.5, 0.8}, {2.0, -0.5, 0.8}, {2.1, -0.5, 0.8},
+                          {2.1, 0.5, 0.8},   {2.0, 0.5, 0.8},  {1.91, 0.5, 0.8}};
     const Eigen::Vector3d o(0.0, 0.0, 1.4);
     // (line x, its height, the plane it is on: -1 none)
     const std::vector<std::tuple<double, double, int>> lines = {

@@ -633,16 +633,17 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
               std::abs(f.normal.dot(q->cast<double>()) - f.offset) <= p.obstacle_min_height) {
             // (The ray's end is known to within the range noise along it:
             // the strip stops short of it by that noise at the one
-            // significance level, towards the line. So is the line's own
-            // point: the strip begins that far inside the plane, and no
-            // cell between the line's points and the outline through its
-            // ends is left to what was seen beneath.)
+            // significance level, towards the line. At the line the strip
+            // overlaps the plane by half a cell's diagonal: a cell is filled
+            // where its centre lies inside, and between the line's points
+            // and the outline through the line's ends a cell's centre would
+            // lie in neither, left to what was seen beneath.)
             const Eigen::Vector2d on = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults).head<2>();
             const Eigen::Vector2d e = q->cast<double>().head<2>();
             const double pull = range_noise.significance * range_noise.rangeSigma((*q - sweep.lines[next].origin).norm());
             const double gap = (on - e).norm();
-            const double back = range_noise.significance * range_noise.rangeSigma((lo.points[b] - lo.origin).norm());
-            line_side.push_back(gap > 0.0 ? Eigen::Vector2d(on + (on - e) * (back / gap)) : on);
+            const double overlap = std::sqrt(0.5) * p.resolution;
+            line_side.push_back(gap > 0.0 ? Eigen::Vector2d(on + (on - e) * (overlap / gap)) : on);
             edge_side.push_back(gap > pull ? Eigen::Vector2d(e + (on - e) * (pull / gap)) : on);
           } else {
             flushEdge(pl);
