@@ -350,8 +350,9 @@ TEST(Grouping, TwoPlanesAFewDegreesApartEachFixedByItsLinesStayTwo) {
     int segments = 0;
     for (const auto& p : planes) segments += p.segments;
     EXPECT_GE(segments, 31) << slope << " degrees";  // (a crease line may go either way or neither)
-    if (planes.size() == 2u)
+    if (planes.size() == 2u) {
       EXPECT_NEAR(std::acos(std::abs(planes[0].fit.normal.dot(planes[1].fit.normal))) * 180 / M_PI, slope, 0.5);
+    }
   }
 }
 
