@@ -127,7 +127,7 @@ def test_synpeb_by_its_own_noise_with_the_defaults():
     # SynPEB's test_100 (../shared/data/synpeb): about 1 mm of range noise. By
     # default segment_cloud measures it and judges the cloud by it (9 of 13
     # planes correct, noise 0); with this head's tolerances (--noise off) faces
-    # that meet at 24 degrees share planes (5, noise 2).
+    # that meet at 24 degrees share planes (4, noise 2).
     cloud = os.path.join(SHARED, "synpeb", "test_100.pcd")
     if not os.path.exists(cloud):
         import pytest

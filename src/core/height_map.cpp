@@ -587,6 +587,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     });
   };
   const NoiseModel range_noise;  // the data sheet's range noise
+  const double overlap = std::sqrt(0.5) * p.resolution;  // half a cell's diagonal (the strip's, below)
   // (Each beam's reach from the line no farther than its neighbours': a lone
   // point beyond the noise's bound draws no spike.)
   std::vector<double> reach;
@@ -642,7 +643,6 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
             const Eigen::Vector2d e = q->cast<double>().head<2>();
             const double pull = range_noise.significance * range_noise.rangeSigma((*q - sweep.lines[next].origin).norm());
             const double gap = (on - e).norm();
-            const double overlap = std::sqrt(0.5) * p.resolution;
             line_side.push_back(gap > 0.0 ? Eigen::Vector2d(on + (on - e) * (overlap / gap)) : on);
             edge_side.push_back(gap > pull ? Eigen::Vector2d(e + (on - e) * (pull / gap)) : on);
           } else {
