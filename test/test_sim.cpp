@@ -726,6 +726,26 @@ TEST(SceneEval, TheSameLinesInTheOtherOrderGiveTheSameFaces) {
   }
 }
 
+TEST(SceneEval, TheSameLinesInTheOtherOrderGiveTheSameHeightMap) {
+  // The reversed sweep is given back as any sweep is (segments in line
+  // order, each plane's outline from its first line's entry): the height map
+  // that reads them is the forward one's. (Before the outline was turned
+  // back, every reversed sweep of the stairs had a map of 1.2 cm RMSE, its
+  // floor's ends left unknown, against 0.2-0.5 cm forward.)
+  sim::SceneEvalOptions o;
+  o.scene = "stairs";
+  o.sweeps = 2;
+  const auto forward = sim::evaluateScene(o);
+  o.sweep.reverse_lines = true;
+  const auto reversed = sim::evaluateScene(o);
+  ASSERT_EQ(forward.size(), reversed.size());
+  for (std::size_t k = 0; k < forward.size(); ++k) {
+    EXPECT_NEAR(reversed[k].heightmap_rmse_m, forward[k].heightmap_rmse_m, 0.001) << "sweep " << k;
+    EXPECT_NEAR(reversed[k].heightmap_coverage, forward[k].heightmap_coverage, 0.01) << "sweep " << k;
+    EXPECT_NEAR(reversed[k].walkable_rmse_m, forward[k].walkable_rmse_m, 0.001) << "sweep " << k;
+  }
+}
+
 // What a footstep planner needs of the map, measured on the stairs: the
 // treads' edges where they are (each centimetre of a true edge against where
 // the map's higher surface ends), and the fused map's sigma honest (few

@@ -280,9 +280,41 @@ bool SweepAssembler::finishSweep(double end, SweepResult& out) {
   }
   current_.finish_seconds = cpuNow() - t0;
   current_.segments = grouper_.segments();
-  if (p_.reverse_lines)
-    for (Segment3& s : current_.segments) s.line = n - 1 - s.line;
   current_.segment_plane = grouper_.segmentPlane();
+  if (p_.reverse_lines) {
+    // Given back as a sweep's segments are: lines in order (each line's
+    // segments came in beam order), the planes' members renumbered.
+    const std::size_t count = current_.segments.size();
+    std::vector<int> at(count);  // the new index of each segment
+    for (std::size_t b = 0; b < count;) {  // the grouper's lines, last one first
+      std::size_t e = b;
+      while (e < count && current_.segments[e].line == current_.segments[b].line) ++e;
+      for (std::size_t k = b; k < e; ++k) at[k] = static_cast<int>(count - e + (k - b));
+      b = e;
+    }
+    std::vector<Segment3> segments(count);
+    std::vector<int> segment_plane(count);
+    for (std::size_t k = 0; k < count; ++k) {
+      segments[at[k]] = std::move(current_.segments[k]);
+      segments[at[k]].line = n - 1 - segments[at[k]].line;
+      segment_plane[at[k]] = current_.segment_plane[k];
+    }
+    current_.segments = std::move(segments);
+    current_.segment_plane = std::move(segment_plane);
+    for (Plane& p : current_.planes) {
+      for (int& m : p.members) m = at[m];
+      std::sort(p.members.begin(), p.members.end());
+      // The outline too: each line's entry, lines in order, then each exit
+      // back (where it has one corner a line end), the holes the same way round.
+      std::reverse(p.boundary.begin(), p.boundary.end());
+      for (auto& h : p.holes) std::reverse(h.begin(), h.end());
+      std::size_t lines = 0;
+      for (std::size_t k = 0; k < p.members.size(); ++k)
+        lines += k == 0 || current_.segments[p.members[k]].line != current_.segments[p.members[k - 1]].line;
+      if (p.boundary.size() == 2 * lines)
+        std::rotate(p.boundary.begin(), p.boundary.begin() + static_cast<std::ptrdiff_t>(lines), p.boundary.end());
+    }
+  }
   current_.end = end;
   out = std::move(current_);
   ++next_id_;
