@@ -704,18 +704,26 @@ TEST(OrganizedLines, TwoThreadsGiveTheSamePlanes) {
   }
 }
 
+namespace {
+// Two sweeps of a scene evaluated as they come and with each sweep's lines
+// grouped last first (evaluate --reverse).
+std::pair<std::vector<sim::SweepEval>, std::vector<sim::SweepEval>> forwardAndReversed(const char* scene) {
+  sim::SceneEvalOptions o;
+  o.scene = scene;
+  o.sweeps = 2;
+  auto forward = sim::evaluateScene(o);
+  o.sweep.reverse_lines = true;
+  return {std::move(forward), sim::evaluateScene(o)};
+}
+}  // namespace
+
 TEST(SceneEval, TheSameLinesInTheOtherOrderGiveTheSameFaces) {
   // evaluate --reverse: each sweep's lines grouped last first, the result in
   // the lines' own numbering (its labels must still land on the right
   // points). On the corridor and the split room every face is found either
   // way; the planes' points are the same to within a few per cent.
   for (const char* scene : {"corridor", "split_room"}) {
-    sim::SceneEvalOptions o;
-    o.scene = scene;
-    o.sweeps = 2;
-    const auto forward = sim::evaluateScene(o);
-    o.sweep.reverse_lines = true;
-    const auto reversed = sim::evaluateScene(o);
+    const auto [forward, reversed] = forwardAndReversed(scene);
     ASSERT_EQ(forward.size(), reversed.size());
     for (std::size_t k = 0; k < forward.size(); ++k) {
       EXPECT_EQ(forward[k].true_faces, reversed[k].true_faces) << scene;
@@ -732,12 +740,7 @@ TEST(SceneEval, TheSameLinesInTheOtherOrderGiveTheSameHeightMap) {
   // that reads them is the forward one's. (Before the outline was turned
   // back, every reversed sweep of the stairs had a map of 1.2 cm RMSE, its
   // floor's ends left unknown, against 0.2-0.5 cm forward.)
-  sim::SceneEvalOptions o;
-  o.scene = "stairs";
-  o.sweeps = 2;
-  const auto forward = sim::evaluateScene(o);
-  o.sweep.reverse_lines = true;
-  const auto reversed = sim::evaluateScene(o);
+  const auto [forward, reversed] = forwardAndReversed("stairs");
   ASSERT_EQ(forward.size(), reversed.size());
   for (std::size_t k = 0; k < forward.size(); ++k) {
     EXPECT_NEAR(reversed[k].heightmap_rmse_m, forward[k].heightmap_rmse_m, 0.001) << "sweep " << k;
