@@ -1087,3 +1087,67 @@ TEST(Grouping, ParallelSegmentsEndToEndDoNotSeedAPlane) {
   ScanLineGrouper g;
   EXPECT_TRUE(group(lines, g).empty());
 }
+
+TEST(Grouping, ALoneLineDownARiserOntoTheFloorGivesItsRiserPartToTheRiser) {
+  // Lines across a riser from below (a spinning head's): each in the
+  // vertical plane y = y_k, its beams aimed at the floor from x = 1.2 on
+  // (kStepSensor), meeting the floor up to the riser at x = 1.5, the riser
+  // up to 0.15 m, the tread beyond (beams 0-59, 60-92, 93-120). Line 5's
+  // riser segment takes its last 12 floor beams along (a bend the split
+  // did not see): 6 cm of floor at its end, too far off the riser's plane
+  // to join it, and no plane takes it. With the lines' points its run of
+  // beams on the riser's plane (from the riser's end) goes to the riser,
+  // the floor's end stays alone.
+  const Eigen::Vector3d o = kStepSensor;
+  StepScan scan;
+  for (int k = 0; k < 11; ++k) {
+    const double y = -0.25 + 0.05 * k;
+    std::vector<Eigen::Vector3f> pts;
+    std::vector<float> ranges;
+    for (int b = 0; b <= 120; ++b) {
+      const Eigen::Vector3d d = Eigen::Vector3d(1.2 + 0.005 * b, y, 0.0) - o;
+      Eigen::Vector3d p = o + d;
+      if (p.x() >= 1.5) {
+        const Eigen::Vector3d r = o + d * ((1.5 - o.x()) / d.x());
+        p = r.z() <= 0.15 ? r : Eigen::Vector3d(o + d * ((o.z() - 0.15) / o.z()));
+      }
+      pts.push_back(p.cast<float>());
+      ranges.push_back(static_cast<float>((p - o).norm()));
+    }
+    std::vector<std::pair<int, int>> spans{{0, 59}, {60, 92}, {93, 120}};
+    if (k == 5) spans = {{0, 47}, {48, 92}, {93, 120}};
+    std::vector<Segment3> l;
+    for (const auto& [a, b] : spans) {
+      Segment3 s;
+      ASSERT_TRUE(makeSegment3(pts, ranges, k, a, b, s));
+      s.origin = o;
+      l.push_back(s);
+    }
+    scan.points.push_back(pts);
+    scan.lines.push_back(l);
+  }
+  for (const bool with_points : {false, true}) {
+    ScanLineGrouper g;
+    const std::vector<Plane> planes = groupScan(scan, with_points, g);
+    const Plane* riser = nullptr;
+    for (const auto& p : planes)
+      if (std::abs(p.fit.normal.x()) > 0.99) riser = &p;
+    ASSERT_NE(riser, nullptr);
+    // (The floor's beams within the threshold of the riser go along: 1-2 mm.)
+    EXPECT_NEAR(riser->fit.offset * riser->fit.normal.x(), 1.5, 2e-3);
+    int riser_beams = 0, first = 121;  // line 5's beams in the riser's plane, and the first of them
+    for (std::size_t si = 0; si < g.segments().size(); ++si) {
+      const Segment3& s = g.segments()[si];
+      if (s.line != 5 || g.segmentPlane()[si] != riser->id) continue;
+      riser_beams += s.last - s.first + 1;
+      first = std::min(first, s.first);
+    }
+    if (!with_points) {
+      EXPECT_EQ(riser_beams, 0);
+      continue;
+    }
+    EXPECT_GE(riser_beams, 33);  // beams 60-92, and the floor's within the threshold of the riser
+    EXPECT_GT(first, 48);        // not the floor's end
+    EXPECT_LE(first, 60);
+  }
+}

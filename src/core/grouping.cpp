@@ -892,16 +892,19 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   for (const int ri : cand) strip_region[ri] = spreadAcross(regions_[ri]) <= kPlanarSpread;
   const auto lateJoin = [&](std::size_t si, bool strips_only) {
     const int ri = seg_region_[si];
-    const bool grouped = ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() >= 2;
-    const bool strip = grouped && strip_region[ri];
+    const bool alive = ri >= 0 && !regions_[ri].dead;
+    const bool grouped = alive && regions_[ri].members.size() >= 2;
+    // (A strip that gave all its other segments away is still one: its last
+    // segment goes as they went.)
+    const bool strip = alive && strip_region[ri];
     if ((grouped && !strip) || (strips_only && !strip)) return;
     const Segment3& s = segs_[si];
     if (s.moments.n < 3) return;
     const int best = bestFit(s, cand, ri, 2, true);
     if (best < 0 || (strip && !planar(regions_[best]))) return;
-    if (strip) {
+    if (grouped) {
       removeMember(ri, static_cast<int>(si));
-    } else if (ri >= 0 && !regions_[ri].dead) {  // a lone segment's region empties
+    } else if (alive) {  // a lone segment's region empties
       regions_[ri].members.clear();
       regions_[ri].dead = true;
     }
@@ -1193,10 +1196,56 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   const auto voteRange = [&](std::size_t s0, std::size_t s1, std::vector<Cut>& out) {
     std::vector<Other> active;
     std::size_t next_other = 0;
+    // The planes whose lines reach `line` (in the candidates' order).
+    const auto reachLine = [&](int line) {
+      if (next_other < others.size() && others[next_other].line_lo <= line) {
+        while (next_other < others.size() && others[next_other].line_lo <= line) active.push_back(others[next_other++]);
+        std::sort(active.begin(), active.end(), [](const Other& a, const Other& b) { return a.order < b.order; });
+      }
+      active.erase(std::remove_if(active.begin(), active.end(), [&](const Other& x) { return x.line_hi < line; }),
+                   active.end());
+    };
     for (std::size_t si = s0; si < s1; ++si) {
       const int ri = seg_region_[si];
-      if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() < 2) continue;
+      if (ri < 0 || regions_[ri].dead) continue;
       const Segment3& s = segs_[si];
+      if (regions_[ri].members.size() == 1) {
+        // A segment no plane took that runs from one plane onto another (a
+        // line down a riser and onto the floor at its foot, a bend under the
+        // split's threshold): the run of its beams from one end whose points
+        // lie within the threshold of a confirmed plane beside it goes to that
+        // plane, the rest stays alone.
+        if (s.moments.n < 2 * p_.min_points) continue;
+        const std::vector<Eigen::Vector3f>* lp = points(s.line);
+        if (!lp || static_cast<int>(lp->size()) <= s.last) continue;
+        reachLine(s.line);
+        const double thr = p_.threshold(s.range);
+        Cut best{-1, 0, 0, -1};
+        int best_n = p_.min_points - 1;
+        for (const Other& x : active) {
+          if (x.region == ri || s.last < x.beam_lo || s.first > x.beam_hi || !confirmed(regions_[x.region])) continue;
+          const PlaneFit& f = regions_[x.region].fit;
+          const auto on = [&](int i) { return std::abs(f.normal.dot((*lp)[i].cast<double>()) - f.offset) <= thr; };
+          for (const int dir : {1, -1}) {
+            int n = 0, i = dir > 0 ? s.first : s.last, end = i;
+            for (; i >= s.first && i <= s.last; i += dir) {
+              if (!std::isfinite((*lp)[i].x())) continue;
+              if (!on(i)) break;
+              ++n;
+              end = i;
+            }
+            if (i < s.first || i > s.last || n <= best_n) continue;  // all of it, or shorter
+            best = dir > 0 ? Cut{static_cast<int>(si), s.first, end, x.region} : Cut{static_cast<int>(si), end, s.last, x.region};
+            best_n = n;
+          }
+        }
+        Segment3 piece;
+        if (best.seg >= 0 && pieceOf(s, *lp, best.first, best.last, piece) &&
+            std::abs(regions_[best.to].fit.normal.dot(piece.moments.mean()) - regions_[best.to].fit.offset) <=
+                p_.centroidTolerance(s.range))
+          out.push_back(best);
+        continue;
+      }
       if (s.moments.n < 2 * p_.min_points || !s.origin.allFinite()) continue;
       const Region& own = regions_[ri];
       const std::vector<Eigen::Vector3f>* pts = nullptr;
@@ -1288,12 +1337,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
         }
         return true;
       };
-      if (next_other < others.size() && others[next_other].line_lo <= s.line) {
-        while (next_other < others.size() && others[next_other].line_lo <= s.line) active.push_back(others[next_other++]);
-        std::sort(active.begin(), active.end(), [](const Other& a, const Other& b) { return a.order < b.order; });
-      }
-      active.erase(std::remove_if(active.begin(), active.end(), [&](const Other& x) { return x.line_hi < s.line; }),
-                   active.end());
+      reachLine(s.line);
       bool have_points = true;
       for (const Other& x : active) {
         if (x.region == ri || s.last < x.beam_lo || s.first > x.beam_hi) continue;

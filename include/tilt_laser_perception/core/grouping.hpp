@@ -257,6 +257,9 @@ class ScanLineGrouper {
   /// points would stay. A lone segment of the next or the line before and
   /// the beams beside it may also span such a plane (a riser crossed by one
   /// line and by the floor's line along its foot): cut out, they seed it.
+  /// A segment no plane took that runs from one plane onto another (a line
+  /// down a riser and onto the floor at its foot) gives the run of its beams
+  /// from one end within the threshold of a confirmed plane to that plane.
   void cutAtCreases(const std::vector<int>& cand, const LinePoints& points);
   void buildPolygon(const Region& r, Plane& out) const;
   /// Drops the planes that hold nothing their bigger neighbours do not: at
