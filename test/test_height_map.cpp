@@ -140,6 +140,114 @@ TEST(HeightMap, AFacesPointsMarkTheCellsBehindIt) {
   }
 }
 
+namespace {
+/// A sweep of one line of 20 points across a face (plane 1, no step: 0.3 m
+/// high) standing on a floor (plane 0), seen from (0, 0, 1.3).
+SweepResult faceSweep(const PlaneFit& fit, const std::vector<Eigen::Vector3d>& outline,
+                      const std::vector<Eigen::Vector3f>& points) {
+  SweepResult s;
+  Plane floor;
+  floor.id = 0;
+  floor.fit.normal = Eigen::Vector3d::UnitZ();
+  floor.area = 4.0;
+  floor.boundary = {{0, -1, 0}, {2, -1, 0}, {2, 1, 0}, {0, 1, 0}};
+  Plane face;
+  face.id = 1;
+  face.fit = fit;
+  face.area = 0.06;
+  face.boundary = outline;
+  SweepLine line;
+  line.origin = Eigen::Vector3f(0.0f, 0.0f, 1.3f);
+  line.points = points;
+  s.lines.push_back(line);
+  Segment3 seg;
+  makeSegment3(line.points, std::vector<float>(points.size(), 1.5f), 0, 0, static_cast<int>(points.size()) - 1, seg);
+  face.members = {0};
+  s.segments = {seg};
+  s.segment_plane = {1};
+  s.planes = {floor, face};
+  return s;
+}
+}  // namespace
+
+TEST(HeightMap, ACellBehindAFaceTakesTheFacesTopWhereALineCrossedItLow) {
+  // The box's front of AFacesPointsMarkTheCellsBehindIt, 0.3 m high, crossed
+  // by one line 5 cm above the floor (a spinning head's line crosses a face
+  // low or high, not along its top). The box's cells behind it hold its
+  // top's height, the face's top, not the line's 5 cm.
+  PlaneFit fit;
+  fit.normal = -Eigen::Vector3d::UnitX();
+  fit.offset = -0.7988;
+  fit.centroid = Eigen::Vector3d(0.7988, 0.0, 0.15);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 20; ++k) pts.emplace_back(0.7988f + 0.001f * (k % 3), -0.095f + 0.01f * k, 0.05f);
+  const SweepResult s =
+      faceSweep(fit, {{0.7988, -0.1, 0.0}, {0.7988, 0.1, 0.0}, {0.7988, 0.1, 0.3}, {0.7988, -0.1, 0.3}}, pts);
+  HeightMapGrid g;
+  buildHeightMap(s, mapParams(0.0, -1.0, 200, 200), g);
+  for (int k = 0; k < 20; ++k) {
+    const int iy = static_cast<int>((-0.095 + 0.01 * k + 1.0) / 0.01);
+    EXPECT_EQ(g.classes[g.index(80, iy)], CellClass::Obstacle) << k;
+    EXPECT_NEAR(g.heights[g.index(80, iy)], 0.3, 1e-4) << k;
+  }
+}
+
+TEST(HeightMap, AFaceAtAnAngleMarksOnlyTheCellsWhoseCentresLieBehindIt) {
+  // An upright face yawed 30 degrees (x = 0.8 + 0.577 (y + 0.1), facing the
+  // sensor): it crosses cells at an angle. Its points mark cells whose
+  // centres lie behind it, never one whose centre lies in front (the floor
+  // there, 0.3 m below the face's top).
+  const Eigen::Vector3d n = Eigen::Vector3d(-std::cos(M_PI / 6.0), std::sin(M_PI / 6.0), 0.0);
+  PlaneFit fit;
+  fit.normal = n;
+  fit.centroid = Eigen::Vector3d(0.8 + std::tan(M_PI / 6.0) * 0.1, 0.0, 0.15);
+  fit.offset = n.dot(fit.centroid);
+  const auto onFace = [&](double y, double z) { return Eigen::Vector3d(0.8 + std::tan(M_PI / 6.0) * (y + 0.1), y, z); };
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 40; ++k) pts.push_back(onFace(-0.095 + 0.005 * k, 0.05 + 0.005 * k).cast<float>());
+  const SweepResult s =
+      faceSweep(fit, {onFace(-0.1, 0.0), onFace(0.1, 0.0), onFace(0.1, 0.3), onFace(-0.1, 0.3)}, pts);
+  HeightMapGrid g;
+  buildHeightMap(s, mapParams(0.0, -1.0, 200, 200), g);
+  int marked = 0;
+  for (int iy = 0; iy < 200; ++iy)
+    for (int ix = 0; ix < 200; ++ix) {
+      if (g.classes[g.index(ix, iy)] != CellClass::Obstacle) continue;
+      ++marked;
+      const Eigen::Vector3d c(0.005 + 0.01 * ix, -1.0 + 0.005 + 0.01 * iy, 0.15);
+      EXPECT_LT(n.dot(c) - fit.offset, 0.0) << ix << " " << iy;  // behind the face
+      EXPECT_NEAR(g.heights[g.index(ix, iy)], 0.3, 1e-4);
+    }
+  EXPECT_GE(marked, 18);  // a cell along each centimetre of the 0.2 m it spans in y, about
+}
+
+TEST(HeightMap, AFaceThatLeansIsAsHighOverACellAsItsPlane) {
+  // A face too steep to walk but leaning 45 degrees (z = x - 0.8 over x
+  // 0.8-1.1): a cell behind it holds the plane's height over the cell (its
+  // highest corner), not the face's top 0.3 m.
+  const Eigen::Vector3d n = Eigen::Vector3d(-1.0, 0.0, 1.0).normalized();
+  PlaneFit fit;
+  fit.normal = n;
+  fit.centroid = Eigen::Vector3d(0.95, 0.0, 0.15);
+  fit.offset = n.dot(fit.centroid);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 20; ++k) pts.emplace_back(0.9f, -0.095f + 0.01f * k, 0.1f);
+  const SweepResult s = faceSweep(fit, {{0.8, -0.1, 0.0}, {0.8, 0.1, 0.0}, {1.1, 0.1, 0.3}, {1.1, -0.1, 0.3}}, pts);
+  HeightMapGrid g;
+  buildHeightMap(s, mapParams(0.0, -1.0, 200, 200), g);
+  for (int k = 0; k < 20; ++k) {
+    const int iy = static_cast<int>((-0.095 + 0.01 * k + 1.0) / 0.01);
+    int hits = 0;
+    for (int ix = 85; ix <= 95; ++ix) {
+      const std::size_t c = g.index(ix, iy);
+      if (g.classes[c] != CellClass::Obstacle) continue;
+      ++hits;
+      EXPECT_NEAR(g.heights[c], 0.01 * (ix + 1) - 0.8, 1e-4) << ix;  // the plane at the cell's far edge
+    }
+    EXPECT_EQ(hits, 1) << k;
+  }
+}
+
 TEST(HeightMap, AGridBuiltAgainEqualsAFreshOne) {
   // buildHeightMap clears only the last map's box when it is given that map
   // again: a second, smaller sweep into the same grid must equal the grid a

@@ -471,20 +471,108 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   const auto inMap = [&](const Eigen::Vector3f& point) {
     return point.x() > x_lo && point.x() < x_hi && point.y() > y_lo && point.y() < y_hi;
   };
+  // The top of each face (a steep plane that is neither walkable nor a step
+  // face) along it: the highest corner of its outline over each cell's
+  // width of its horizontal axis, built when a point of it is first marked.
+  struct FaceTop {
+    bool built = false;
+    Eigen::Vector2d axis = Eigen::Vector2d::Zero();
+    double u0 = 0.0;
+    std::vector<float> top;  // per cell's width along axis; -inf: none
+    double z_lo = 0.0, z_hi = 0.0;  // its outline's lowest and highest corner
+  };
+  std::vector<FaceTop> face_tops(sweep.planes.size());
+  const auto faceTop = [&](const Plane& pl) -> const FaceTop& {
+    FaceTop& f = face_tops[pl.id];
+    if (f.built) return f;
+    f.built = true;
+    const Eigen::Vector2d h(-pl.fit.normal.y(), pl.fit.normal.x());
+    const std::vector<Eigen::Vector3d>& b = pl.boundary;
+    if (!(h.norm() > 1e-6) || b.size() < 3) return f;
+    f.axis = h.normalized();
+    double lo = 1e300, hi = -1e300;
+    f.z_lo = 1e300;
+    f.z_hi = -1e300;
+    for (const Eigen::Vector3d& v : b) {
+      lo = std::min(lo, f.axis.dot(v.head<2>()));
+      hi = std::max(hi, f.axis.dot(v.head<2>()));
+      f.z_lo = std::min(f.z_lo, v.z());
+      f.z_hi = std::max(f.z_hi, v.z());
+    }
+    const double bins = (hi - lo) * inv_res + 1.0;
+    if (!(bins < 1e5)) return f;
+    f.u0 = lo;
+    f.top.assign(static_cast<std::size_t>(bins), -std::numeric_limits<float>::infinity());
+    const auto bin = [&](double u) {
+      return std::min(f.top.size() - 1, static_cast<std::size_t>(std::max(0.0, (u - lo) * inv_res)));
+    };
+    for (std::size_t i = 0; i < b.size(); ++i) {  // each edge over the bins it spans
+      const Eigen::Vector3d& a = b[i];
+      const Eigen::Vector3d& e = b[(i + 1) % b.size()];
+      const double ua = f.axis.dot(a.head<2>()), ue = f.axis.dot(e.head<2>());
+      const double u_lo = std::min(ua, ue), u_hi = std::max(ua, ue);
+      for (std::size_t k = bin(u_lo), k1 = bin(u_hi); k <= k1; ++k) {
+        const double u = std::clamp(lo + (k + 0.5) * p.resolution, u_lo, u_hi);
+        const double z = u_hi > u_lo ? a.z() + (e.z() - a.z()) * (u - ua) / (ue - ua) : std::max(a.z(), e.z());
+        f.top[k] = std::max(f.top[k], static_cast<float>(z));
+      }
+    }
+    return f;
+  };
   const auto mark = [&](const Eigen::Vector3f& point, const Plane* plane) {
     // A point of a plane (a wall, a box's side) is put on its plane: range
-    // noise would otherwise spill it into the cells in front. There it lies
-    // on the border between the cells in front (free) and those behind
-    // (what the face bounds): it marks those behind, half a cell in (the
-    // normal points towards the sensor), wherever the fit puts the face
-    // within its cell.
+    // noise would otherwise spill it into the cells in front. It marks the
+    // cell behind the face (the normal points towards the sensor) whose
+    // centre lies behind it: a face that crosses a cell at an angle leaves
+    // the cell to what is in front when its centre is. (Where an upright
+    // face lies is judged at its centroid's height, where its fit is surest,
+    // not where a tilt within the noise puts its foot or its top.) The cell takes the
+    // face's top there: what a cell just behind a face holds is what the
+    // face bounds (a box's top), which a line that crossed the face low
+    // does not show.
     Eigen::Vector3d q = point.cast<double>();
-    if (plane) q -= (plane->fit.normal.dot(q) - plane->fit.offset + 0.5 * p.resolution) * plane->fit.normal;
+    float z = static_cast<float>(q.z());
+    if (plane) {
+      const PlaneFit& f = plane->fit;
+      q -= (f.normal.dot(q) - f.offset) * f.normal;
+      const Eigen::Vector2d nh = f.normal.head<2>();
+      if (nh.norm() > 1e-6) {
+        const FaceTop& top = faceTop(*plane);
+        if (!top.top.empty()) {
+          const double u = (top.axis.dot(q.head<2>()) - top.u0) * inv_res;
+          const float t = top.top[std::min(top.top.size() - 1, static_cast<std::size_t>(std::max(0.0, u)))];
+          if (t > -std::numeric_limits<float>::infinity()) z = t;
+        }
+        // Upright: its whole height lies within a cell's width. One that
+        // leans (a slope too steep to walk) is judged where the point is, and
+        // is as high over the cell as its plane over the cell's corners,
+        // below its top.
+        const bool upright = p.resolution * nh.norm() >= std::abs(f.normal.z()) * (top.z_hi - top.z_lo);
+        const double z_at = upright ? f.centroid.z() : q.z();
+        const Eigen::Vector2d in = -0.5 * p.resolution * nh.normalized();
+        bool behind = false;
+        for (int k = 0; k < 2 && !behind; ++k) {
+          q.head<2>() += in;
+          const double cx = p.origin_x + (std::floor((q.x() - p.origin_x) * inv_res) + 0.5) * p.resolution;
+          const double cy = p.origin_y + (std::floor((q.y() - p.origin_y) * inv_res) + 0.5) * p.resolution;
+          behind = f.normal.x() * cx + f.normal.y() * cy + f.normal.z() * z_at < f.offset;
+        }
+        if (!behind) return;
+        if (!upright) {
+          const double x0 = p.origin_x + std::floor((q.x() - p.origin_x) * inv_res) * p.resolution;
+          const double y0 = p.origin_y + std::floor((q.y() - p.origin_y) * inv_res) * p.resolution;
+          double over = -1e300;
+          for (const double cx : {x0, x0 + p.resolution})
+            for (const double cy : {y0, y0 + p.resolution})
+              over = std::max(over, (f.offset - f.normal.x() * cx - f.normal.y() * cy) / f.normal.z());
+          z = static_cast<float>(std::min<double>(z, over));
+        }
+      }
+    }
     const int ix = static_cast<int>(std::floor((q.x() - p.origin_x) * inv_res));
     const int iy = static_cast<int>(std::floor((q.y() - p.origin_y) * inv_res));
     if (ix < 0 || iy < 0 || ix >= p.width || iy >= p.height) return;
     const std::size_t c = out.index(ix, iy);
-    const float z = static_cast<float>(q.z());
     const bool known_surface = out.classes[c] == CellClass::Floor || out.classes[c] == CellClass::Step;
     if (known_surface && z < out.heights[c] + p.obstacle_min_height) return;
     if (out.classes[c] == CellClass::Obstacle && z <= out.heights[c]) return;
