@@ -221,6 +221,26 @@ TEST(HeightMap, AFaceAtAnAngleMarksOnlyTheCellsWhoseCentresLieBehindIt) {
   EXPECT_GE(marked, 18);  // a cell along each centimetre of the 0.2 m it spans in y, about
 }
 
+TEST(HeightMap, AFacesPointBeyondItsOutlinesEndMarksNothing) {
+  // The box's front of ACellBehindAFaceTakesTheFacesTopWhereALineCrossedItLow
+  // ends at y = +-0.1 m (the box's corners, its sides going back from there).
+  // A point of it that range noise put 4 mm past the corner would mark the
+  // cell beyond, outside the box, with the box's top: it marks nothing.
+  PlaneFit fit;
+  fit.normal = -Eigen::Vector3d::UnitX();
+  fit.offset = -0.7988;
+  fit.centroid = Eigen::Vector3d(0.7988, 0.0, 0.15);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 20; ++k) pts.emplace_back(0.7988f, -0.095f + 0.01f * k, 0.05f);
+  pts.emplace_back(0.7988f, 0.104f, 0.05f);
+  const SweepResult s =
+      faceSweep(fit, {{0.7988, -0.1, 0.0}, {0.7988, 0.1, 0.0}, {0.7988, 0.1, 0.3}, {0.7988, -0.1, 0.3}}, pts);
+  HeightMapGrid g;
+  buildHeightMap(s, mapParams(0.0, -1.0, 200, 200), g);
+  EXPECT_EQ(g.classes[g.index(80, 109)], CellClass::Obstacle);  // y 0.09-0.10: the box's
+  EXPECT_EQ(g.classes[g.index(80, 110)], CellClass::Floor);     // y 0.10-0.11: beyond its corner
+}
+
 TEST(HeightMap, AFaceThatLeansIsAsHighOverACellAsItsPlane) {
   // A face too steep to walk but leaning 45 degrees (z = x - 0.8 over x
   // 0.8-1.1): a cell behind it holds the plane's height over the cell (its

@@ -558,6 +558,12 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
           behind = f.normal.x() * cx + f.normal.y() * cy + f.normal.z() * z_at < f.offset;
         }
         if (!behind) return;
+        if (!top.top.empty()) {  // nor one beside its ends (beyond a box's corner, past its other face)
+          const double cx = p.origin_x + (std::floor((q.x() - p.origin_x) * inv_res) + 0.5) * p.resolution;
+          const double cy = p.origin_y + (std::floor((q.y() - p.origin_y) * inv_res) + 0.5) * p.resolution;
+          const double u = top.axis.dot(Eigen::Vector2d(cx, cy)) - top.u0;
+          if (u < 0.0 || u > (top.top.size() - 1) * p.resolution) return;
+        }
         if (!upright) {
           const double x0 = p.origin_x + std::floor((q.x() - p.origin_x) * inv_res) * p.resolution;
           const double y0 = p.origin_y + std::floor((q.y() - p.origin_y) * inv_res) * p.resolution;
