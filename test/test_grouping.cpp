@@ -116,6 +116,14 @@ StepScan scanStep(const std::vector<double>& aims) {
 }
 
 
+/// The plane facing x (a riser) among `planes`, the last if several; null for none.
+const Plane* riserOf(const std::vector<Plane>& planes) {
+  const Plane* riser = nullptr;
+  for (const auto& p : planes)
+    if (std::abs(p.fit.normal.x()) > 0.99) riser = &p;
+  return riser;
+}
+
 /// Groups a ray-cast scan, with its lines' points (for the crease cut) or without.
 std::vector<Plane> groupScan(const StepScan& scan, bool with_points, ScanLineGrouper& g,
                              const Eigen::Vector3d& sensor = kStepSensor) {
@@ -1011,9 +1019,7 @@ TEST(Grouping, ARiserSeenByALineAndByTheFloorsLineAlongItsFootIsFound) {
   for (const bool with_points : {false, true}) {
     ScanLineGrouper g;
     const std::vector<Plane> planes = groupScan(scan, with_points, g);
-    const Plane* riser = nullptr;
-    for (const auto& p : planes)
-      if (std::abs(p.fit.normal.x()) > 0.99) riser = &p;
+    const Plane* riser = riserOf(planes);
     if (!with_points) {
       EXPECT_EQ(riser, nullptr);
       continue;
@@ -1129,9 +1135,7 @@ TEST(Grouping, ALoneLineDownARiserOntoTheFloorGivesItsRiserPartToTheRiser) {
   for (const bool with_points : {false, true}) {
     ScanLineGrouper g;
     const std::vector<Plane> planes = groupScan(scan, with_points, g);
-    const Plane* riser = nullptr;
-    for (const auto& p : planes)
-      if (std::abs(p.fit.normal.x()) > 0.99) riser = &p;
+    const Plane* riser = riserOf(planes);
     ASSERT_NE(riser, nullptr);
     // (The floor's beams within the threshold of the riser go along: 1-2 mm.)
     EXPECT_NEAR(riser->fit.offset * riser->fit.normal.x(), 1.5, 2e-3);

@@ -103,46 +103,9 @@ TEST(HeightMap, AMixedPixelIsNoObstacle) {
   EXPECT_NEAR(g.heights[cell(g, veil)], veil.z(), 1e-6);
 }
 
-TEST(HeightMap, AFacesPointsMarkTheCellsBehindIt) {
-  // A box's front face at x = 0.8 m, on a cell border, seen from (0, 0, 1.3):
-  // its plane fitted 1.2 mm in front of it (as range noise leaves it). Its
-  // points mark the box's cells (x 0.80-0.81), not the floor's before it.
-  SweepResult s;
-  Plane floor;
-  floor.id = 0;
-  floor.fit.normal = Eigen::Vector3d::UnitZ();
-  floor.area = 4.0;
-  floor.boundary = {{0, -1, 0}, {2, -1, 0}, {2, 1, 0}, {0, 1, 0}};
-  Plane face;
-  face.id = 1;
-  face.fit.normal = -Eigen::Vector3d::UnitX();  // towards the sensor
-  face.fit.offset = -0.7988;
-  face.fit.centroid = Eigen::Vector3d(0.7988, 0.0, 0.15);
-  face.area = 0.06;
-  face.boundary = {{0.7988, -0.1, 0.0}, {0.7988, 0.1, 0.0}, {0.7988, 0.1, 0.3}, {0.7988, -0.1, 0.3}};  // no step
-  SweepLine line;
-  line.origin = Eigen::Vector3f(0.0f, 0.0f, 1.3f);
-  for (int k = 0; k < 20; ++k) line.points.emplace_back(0.7988f + 0.001f * (k % 3), -0.095f + 0.01f * k, 0.15f);
-  s.lines.push_back(line);
-  Segment3 seg;
-  makeSegment3(line.points, std::vector<float>(20, 1.5f), 0, 0, 19, seg);
-  face.members = {0};
-  s.segments = {seg};
-  s.segment_plane = {1};
-  s.planes = {floor, face};
-  const HeightMapParams p = mapParams(0.0, -1.0, 200, 200);
-  HeightMapGrid g;
-  buildHeightMap(s, p, g);
-  for (int k = 0; k < 20; ++k) {
-    const int iy = static_cast<int>((-0.095 + 0.01 * k + 1.0) / 0.01);
-    EXPECT_EQ(g.classes[g.index(80, iy)], CellClass::Obstacle) << k;  // x 0.80-0.81
-    EXPECT_EQ(g.classes[g.index(79, iy)], CellClass::Floor) << k;     // x 0.79-0.80
-  }
-}
-
 namespace {
-/// A sweep of one line of 20 points across a face (plane 1, no step: 0.3 m
-/// high) standing on a floor (plane 0), seen from (0, 0, 1.3).
+/// A sweep of one line of `points` on a face (plane 1, its `outline` 0.3 m
+/// high: no step) standing on a floor (plane 0), seen from (0, 0, 1.3).
 SweepResult faceSweep(const PlaneFit& fit, const std::vector<Eigen::Vector3d>& outline,
                       const std::vector<Eigen::Vector3f>& points) {
   SweepResult s;
@@ -168,27 +131,34 @@ SweepResult faceSweep(const PlaneFit& fit, const std::vector<Eigen::Vector3d>& o
   s.planes = {floor, face};
   return s;
 }
-}  // namespace
 
-TEST(HeightMap, ACellBehindAFaceTakesTheFacesTopWhereALineCrossedItLow) {
-  // The box's front of AFacesPointsMarkTheCellsBehindIt, 0.3 m high, crossed
-  // by one line 5 cm above the floor (a spinning head's line crosses a face
-  // low or high, not along its top). The box's cells behind it hold its
-  // top's height, the face's top, not the line's 5 cm.
+/// A box's front face at x = 0.8 m (a cell border), 0.3 m high over y +-0.1
+/// m, its plane fitted 1.2 mm in front of it (as range noise leaves it), and
+/// a line of `points` on it.
+SweepResult boxFront(const std::vector<Eigen::Vector3f>& points) {
   PlaneFit fit;
-  fit.normal = -Eigen::Vector3d::UnitX();
+  fit.normal = -Eigen::Vector3d::UnitX();  // towards the sensor
   fit.offset = -0.7988;
   fit.centroid = Eigen::Vector3d(0.7988, 0.0, 0.15);
+  return faceSweep(fit, {{0.7988, -0.1, 0.0}, {0.7988, 0.1, 0.0}, {0.7988, 0.1, 0.3}, {0.7988, -0.1, 0.3}}, points);
+}
+}  // namespace
+
+TEST(HeightMap, AFacesPointsMarkTheCellsBehindItWithItsTop) {
+  // boxFront seen from (0, 0, 1.3), crossed by one line 5 cm above the floor
+  // (a spinning head's line crosses a face low or high, not along its top).
+  // Its points mark the box's cells (x 0.80-0.81), not the floor's before it,
+  // with the face's top, 0.3 m, not the line's 5 cm.
   std::vector<Eigen::Vector3f> pts;
   for (int k = 0; k < 20; ++k) pts.emplace_back(0.7988f + 0.001f * (k % 3), -0.095f + 0.01f * k, 0.05f);
-  const SweepResult s =
-      faceSweep(fit, {{0.7988, -0.1, 0.0}, {0.7988, 0.1, 0.0}, {0.7988, 0.1, 0.3}, {0.7988, -0.1, 0.3}}, pts);
+  const SweepResult s = boxFront(pts);
   HeightMapGrid g;
   buildHeightMap(s, mapParams(0.0, -1.0, 200, 200), g);
   for (int k = 0; k < 20; ++k) {
     const int iy = static_cast<int>((-0.095 + 0.01 * k + 1.0) / 0.01);
-    EXPECT_EQ(g.classes[g.index(80, iy)], CellClass::Obstacle) << k;
+    EXPECT_EQ(g.classes[g.index(80, iy)], CellClass::Obstacle) << k;  // x 0.80-0.81
     EXPECT_NEAR(g.heights[g.index(80, iy)], 0.3, 1e-4) << k;
+    EXPECT_EQ(g.classes[g.index(79, iy)], CellClass::Floor) << k;  // x 0.79-0.80
   }
 }
 
@@ -222,19 +192,13 @@ TEST(HeightMap, AFaceAtAnAngleMarksOnlyTheCellsWhoseCentresLieBehindIt) {
 }
 
 TEST(HeightMap, AFacesPointBeyondItsOutlinesEndMarksNothing) {
-  // The box's front of ACellBehindAFaceTakesTheFacesTopWhereALineCrossedItLow
-  // ends at y = +-0.1 m (the box's corners, its sides going back from there).
+  // boxFront ends at y = +-0.1 m (the box's corners, its sides going back from there).
   // A point of it that range noise put 4 mm past the corner would mark the
   // cell beyond, outside the box, with the box's top: it marks nothing.
-  PlaneFit fit;
-  fit.normal = -Eigen::Vector3d::UnitX();
-  fit.offset = -0.7988;
-  fit.centroid = Eigen::Vector3d(0.7988, 0.0, 0.15);
   std::vector<Eigen::Vector3f> pts;
   for (int k = 0; k < 20; ++k) pts.emplace_back(0.7988f, -0.095f + 0.01f * k, 0.05f);
   pts.emplace_back(0.7988f, 0.104f, 0.05f);
-  const SweepResult s =
-      faceSweep(fit, {{0.7988, -0.1, 0.0}, {0.7988, 0.1, 0.0}, {0.7988, 0.1, 0.3}, {0.7988, -0.1, 0.3}}, pts);
+  const SweepResult s = boxFront(pts);
   HeightMapGrid g;
   buildHeightMap(s, mapParams(0.0, -1.0, 200, 200), g);
   EXPECT_EQ(g.classes[g.index(80, 109)], CellClass::Obstacle);  // y 0.09-0.10: the box's

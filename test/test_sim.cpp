@@ -834,18 +834,26 @@ TEST(SceneEval, EachSweepShowsItsLinesPoseError) {
   EXPECT_LT(real, 0.3);
 }
 
+namespace {
+/// The stairs seen by a spinning head (evaluate --scene stairs --spin 1.0).
+sim::SceneEvalOptions spinningStairs(int sweeps) {
+  sim::SceneEvalOptions o;
+  o.scene = "stairs";
+  o.sweeps = sweeps;
+  o.profile.mode = core::TiltProfileParams::Mode::Spin;
+  o.profile.speed = 1.0;
+  o.sweep.spin_span = o.profile.spin_span;
+  return o;
+}
+}  // namespace
+
 TEST(SceneEval, ASpinningHeadsHalfTurnHoldsItsFloorAndWallsWhole) {
   // evaluate --spin: the laser's scan plane contains the spin axis, so every
   // line on the floor passes where the axis meets it, and a half turn ends in
   // the plane it began in. The floor and the walls the seam cuts are one
   // plane each (over-segmented: none), and the floor's area is the fan's
   // (tens of square metres), not what its boundary's signed area leaves.
-  sim::SceneEvalOptions o;
-  o.scene = "stairs";
-  o.sweeps = 2;
-  o.profile.mode = core::TiltProfileParams::Mode::Spin;
-  o.profile.speed = 1.0;
-  o.sweep.spin_span = o.profile.spin_span;
+  sim::SceneEvalOptions o = spinningStairs(2);
   double floor_area = 0.0;
   int floors = 0;
   o.on_sweep = [&](const core::SweepResult& sw) {
@@ -887,12 +895,7 @@ TEST(SceneEval, ASpinningHeadsLinesOnTheRisersAreInTheRisersPlanes) {
   // and 2 cm of its edges) that are in no plane, over three sweeps: 320 of
   // 14,631 before (line 0's riser segment, 128 points, and the risers'
   // feet), 49 now.
-  sim::SceneEvalOptions o;
-  o.scene = "stairs";
-  o.sweeps = 3;
-  o.profile.mode = core::TiltProfileParams::Mode::Spin;
-  o.profile.speed = 1.0;
-  o.sweep.spin_span = o.profile.spin_span;
+  sim::SceneEvalOptions o = spinningStairs(3);
   int loose = 0, on_risers = 0;
   o.on_sweep = [&](const core::SweepResult& sw) {
     for (std::size_t si = 0; si < sw.segments.size(); ++si) {
