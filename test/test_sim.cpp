@@ -917,3 +917,20 @@ TEST(SceneEval, ASpinningHeadsLinesOnTheRisersAreInTheRisersPlanes) {
   EXPECT_GT(on_risers, 3000);
   EXPECT_LT(loose, on_risers / 100) << loose << " of " << on_risers;
 }
+
+TEST(SceneEval, ABoxsTopAndATreadAtItsHeightStayTwoPlanes) {
+  // The turned stairs: the box's top and tread 2 both at 0.30 m, 0.3 m
+  // apart, within the merge's reach. The lines between them saw the floor
+  // 0.3 m below, behind both planes: the rays passed where one surface
+  // would go on, so they are two (before: one plane of both, every sweep
+  // 12 of 14 faces, one under-segmented).
+  sim::SceneEvalOptions o;
+  o.scene = "stairs_turned";
+  o.sweeps = 2;
+  const auto ev = sim::evaluateScene(o);
+  ASSERT_EQ(ev.size(), 2u);
+  for (const auto& e : ev) {
+    EXPECT_EQ(e.under, 0);
+    EXPECT_EQ(e.correct, e.true_faces);
+  }
+}

@@ -260,12 +260,36 @@ bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b
   if (a.empty() || b.empty()) return false;
   const bool ca = ra && confirmed(*ra), cb = rb && confirmed(*rb);
   const int gap = p_.max_line_gap + 1;
+  // Two segments with a segment of either's line between them that lies
+  // behind both planes: that line's rays passed where the surface would go
+  // on (the floor seen between a box's top and a tread at its height). One
+  // in front proves nothing (a box on a floor hides the floor behind it).
+  const auto seenThrough = [&](int i, int j) {
+    if (!ra || !rb) return false;
+    const Eigen::Vector3d ci = segs_[i].moments.mean(), d = segs_[j].moments.mean() - ci;
+    const double l2 = d.squaredNorm();
+    if (!(l2 > 0.0)) return false;
+    for (const auto& [k, own] : {std::pair<int, int>{i - 1, i}, {i + 1, i}, {j - 1, j}, {j + 1, j}}) {
+      if (k < 0 || k >= static_cast<int>(segs_.size()) || k == i || k == j || segs_[k].line != segs_[own].line) continue;
+      const Eigen::Vector3d c = segs_[k].moments.mean();
+      const double t = (c - ci).dot(d) / l2;
+      if (t <= 0.0 || t >= 1.0) continue;
+      const double tol = p_.centroidTolerance(segs_[k].range);
+      const auto behind = [&](const PlaneFit& f) {
+        const double side = f.normal.dot(sensor_) - f.offset >= 0.0 ? 1.0 : -1.0;
+        return side * (f.normal.dot(c) - f.offset) < -tol;
+      };
+      if (behind(ra->fit) && behind(rb->fit)) return true;
+    }
+    return false;
+  };
   const auto [a0, a1] = membersIn(a, segs_[b.front()].line - gap, segs_[b.back()].line + gap);
   for (auto i = a0; i != a1; ++i) {
     const auto [b0, b1] = membersIn(b, segs_[*i].line - gap, segs_[*i].line + gap);
     for (auto j = b0; j != b1; ++j)
       if (near(segs_[*i], segs_[*j], limit) && ((!ca && !cb) || (ca && endsOn(segs_[*j], *ra)) ||
-                                                (cb && endsOn(segs_[*i], *rb))))
+                                                (cb && endsOn(segs_[*i], *rb))) &&
+          !seenThrough(*i, *j))
         return true;
   }
   return false;

@@ -210,7 +210,9 @@ class ScanLineGrouper {
   /// line within max_line_gap + 1 of its own (both segment indices, increasing).
   /// Given the regions (both or neither), where one of them is confirmed,
   /// only where a segment of one ends on a confirmed one's plane (endsOn):
-  /// where they meet, it would have joined that plane as it grew.
+  /// where they meet, it would have joined that plane as it grew; and not
+  /// where a segment of either's line lies between the two behind both
+  /// planes (its rays passed where the surface would go on).
   bool touch(const std::vector<int>& a, const std::vector<int>& b, double limit, const Region* ra = nullptr,
              const Region* rb = nullptr) const;
   /// Whether both ends of s lie within kEndsOn thresholds of r's plane, and
