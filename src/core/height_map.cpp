@@ -523,13 +523,13 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     // A point of a plane (a wall, a box's side) is put on its plane: range
     // noise would otherwise spill it into the cells in front. It marks the
     // cell behind the face (the normal points towards the sensor) whose
-    // centre lies behind it: a face that crosses a cell at an angle leaves
-    // the cell to what is in front when its centre is. (Where an upright
-    // face lies is judged at its centroid's height, where its fit is surest,
-    // not where a tilt within the noise puts its foot or its top.) The cell takes the
-    // face's top there: what a cell just behind a face holds is what the
-    // face bounds (a box's top), which a line that crossed the face low
-    // does not show.
+    // centre lies behind it and within the face's ends: a face that crosses
+    // a cell at an angle leaves the cell to what is in front when its centre
+    // is. (Where an upright face lies is judged at its centroid's height,
+    // where its fit is surest, not where a tilt within the noise puts its
+    // foot or its top.) The cell takes the face's top there: what a cell
+    // just behind a face holds is what the face bounds (a box's top), which
+    // a line that crossed the face low does not show.
     Eigen::Vector3d q = point.cast<double>();
     float z = static_cast<float>(q.z());
     if (plane) {
@@ -550,18 +550,18 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
         const bool upright = p.resolution * nh.norm() >= std::abs(f.normal.z()) * (top.z_hi - top.z_lo);
         const double z_at = upright ? f.centroid.z() : q.z();
         const Eigen::Vector2d in = -0.5 * p.resolution * nh.normalized();
+        const auto centre = [&] {  // of q's cell
+          return Eigen::Vector2d(p.origin_x + (std::floor((q.x() - p.origin_x) * inv_res) + 0.5) * p.resolution,
+                                 p.origin_y + (std::floor((q.y() - p.origin_y) * inv_res) + 0.5) * p.resolution);
+        };
         bool behind = false;
         for (int k = 0; k < 2 && !behind; ++k) {
           q.head<2>() += in;
-          const double cx = p.origin_x + (std::floor((q.x() - p.origin_x) * inv_res) + 0.5) * p.resolution;
-          const double cy = p.origin_y + (std::floor((q.y() - p.origin_y) * inv_res) + 0.5) * p.resolution;
-          behind = f.normal.x() * cx + f.normal.y() * cy + f.normal.z() * z_at < f.offset;
+          behind = nh.dot(centre()) + f.normal.z() * z_at < f.offset;
         }
         if (!behind) return;
-        if (!top.top.empty()) {  // nor one beside its ends (beyond a box's corner, past its other face)
-          const double cx = p.origin_x + (std::floor((q.x() - p.origin_x) * inv_res) + 0.5) * p.resolution;
-          const double cy = p.origin_y + (std::floor((q.y() - p.origin_y) * inv_res) + 0.5) * p.resolution;
-          const double u = top.axis.dot(Eigen::Vector2d(cx, cy)) - top.u0;
+        if (!top.top.empty()) {  // nor one beyond its ends (past a box's corner, beside its other face)
+          const double u = top.axis.dot(centre()) - top.u0;
           if (u < 0.0 || u > (top.top.size() - 1) * p.resolution) return;
         }
         if (!upright) {
