@@ -80,37 +80,44 @@ struct StepScan {
   std::vector<std::vector<Eigen::Vector3f>> points;
   std::vector<std::vector<Segment3>> lines;
 };
-StepScan scanStep(const std::vector<double>& aims) {
+/// Where the ray from kStepSensor towards the floor at (x, y) meets the step.
+Eigen::Vector3d stepHit(double x, double y) {
   const Eigen::Vector3d o = kStepSensor;
-  const auto hit = [&](double aim, double y) {
-    const Eigen::Vector3d d = Eigen::Vector3d(aim, y, 0.0) - o;
-    Eigen::Vector3d p = o + d;  // on the floor
-    if (std::abs(y) < 0.305 && p.x() >= 1.5) {
-      const Eigen::Vector3d r = o + d * ((1.5 - o.x()) / d.x());
-      p = r.z() <= 0.15 ? r : Eigen::Vector3d(o + d * ((o.z() - 0.15) / o.z()));
-    }
-    return p;
-  };
+  const Eigen::Vector3d d = Eigen::Vector3d(x, y, 0.0) - o;
+  Eigen::Vector3d p = o + d;  // on the floor
+  if (std::abs(y) < 0.305 && p.x() >= 1.5) {
+    const Eigen::Vector3d r = o + d * ((1.5 - o.x()) / d.x());
+    p = r.z() <= 0.15 ? r : Eigen::Vector3d(o + d * ((o.z() - 0.15) / o.z()));
+  }
+  return p;
+}
+
+/// Appends a line of `pts` to `scan`, in segments of the beams `spans`.
+void addStepLine(StepScan& scan, const std::vector<Eigen::Vector3f>& pts,
+                 const std::vector<std::pair<int, int>>& spans) {
+  const int k = static_cast<int>(scan.lines.size());
+  std::vector<float> ranges;
+  for (const Eigen::Vector3f& q : pts) ranges.push_back(static_cast<float>((q.cast<double>() - kStepSensor).norm()));
+  std::vector<Segment3> l;
+  for (const auto& [a, b] : spans) {
+    Segment3 s;
+    if (!makeSegment3(pts, ranges, k, a, b, s)) continue;
+    s.origin = kStepSensor;
+    l.push_back(s);
+  }
+  scan.points.push_back(pts);
+  scan.lines.push_back(l);
+}
+
+StepScan scanStep(const std::vector<double>& aims) {
   StepScan out;
-  for (std::size_t k = 0; k < aims.size(); ++k) {
+  for (const double aim : aims) {
     std::vector<Eigen::Vector3f> pts;
-    std::vector<float> ranges;
-    for (int b = 0; b <= 120; ++b) {
-      pts.push_back(aims[k] > 0.0 ? Eigen::Vector3f(hit(aims[k], -0.6 + 0.01 * b).cast<float>())
-                                  : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
-      ranges.push_back(static_cast<float>((pts.back().cast<double>() - o).norm()));
-    }
-    std::vector<std::pair<int, int>> spans{{0, 120}};
-    if (aims[k] > 1.55) spans = {{0, 29}, {30, 90}, {91, 120}};
-    std::vector<Segment3> l;
-    for (const auto& [a, b] : spans) {
-      Segment3 s;
-      if (!makeSegment3(pts, ranges, static_cast<int>(k), a, b, s)) continue;
-      s.origin = o;
-      l.push_back(s);
-    }
-    out.points.push_back(pts);
-    out.lines.push_back(l);
+    for (int b = 0; b <= 120; ++b)
+      pts.push_back(aim > 0.0 ? Eigen::Vector3f(stepHit(aim, -0.6 + 0.01 * b).cast<float>())
+                              : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+    addStepLine(out, pts, aim > 1.55 ? std::vector<std::pair<int, int>>{{0, 29}, {30, 90}, {91, 120}}
+                                     : std::vector<std::pair<int, int>>{{0, 120}});
   }
   return out;
 }
@@ -1095,42 +1102,23 @@ TEST(Grouping, ParallelSegmentsEndToEndDoNotSeedAPlane) {
 }
 
 TEST(Grouping, ALoneLineDownARiserOntoTheFloorGivesItsRiserPartToTheRiser) {
-  // Lines across a riser from below (a spinning head's): each in the
-  // vertical plane y = y_k, its beams aimed at the floor from x = 1.2 on
-  // (kStepSensor), meeting the floor up to the riser at x = 1.5, the riser
+  // scanStep's step crossed by lines from below (a spinning head's): each in
+  // the vertical plane y = y_k, its beams aimed at the floor from x = 1.2 on
+  // (stepHit), meeting the floor up to the riser at x = 1.5, the riser
   // up to 0.15 m, the tread beyond (beams 0-59, 60-92, 93-120). Line 5's
   // riser segment takes its last 12 floor beams along (a bend the split
   // did not see): 6 cm of floor at its end, too far off the riser's plane
   // to join it, and no plane takes it. With the lines' points its run of
   // beams on the riser's plane (from the riser's end) goes to the riser,
   // the floor's end stays alone.
-  const Eigen::Vector3d o = kStepSensor;
   StepScan scan;
   for (int k = 0; k < 11; ++k) {
-    const double y = -0.25 + 0.05 * k;
     std::vector<Eigen::Vector3f> pts;
-    std::vector<float> ranges;
-    for (int b = 0; b <= 120; ++b) {
-      const Eigen::Vector3d d = Eigen::Vector3d(1.2 + 0.005 * b, y, 0.0) - o;
-      Eigen::Vector3d p = o + d;
-      if (p.x() >= 1.5) {
-        const Eigen::Vector3d r = o + d * ((1.5 - o.x()) / d.x());
-        p = r.z() <= 0.15 ? r : Eigen::Vector3d(o + d * ((o.z() - 0.15) / o.z()));
-      }
-      pts.push_back(p.cast<float>());
-      ranges.push_back(static_cast<float>((p - o).norm()));
-    }
-    std::vector<std::pair<int, int>> spans{{0, 59}, {60, 92}, {93, 120}};
-    if (k == 5) spans = {{0, 47}, {48, 92}, {93, 120}};
-    std::vector<Segment3> l;
-    for (const auto& [a, b] : spans) {
-      Segment3 s;
-      ASSERT_TRUE(makeSegment3(pts, ranges, k, a, b, s));
-      s.origin = o;
-      l.push_back(s);
-    }
-    scan.points.push_back(pts);
-    scan.lines.push_back(l);
+    for (int b = 0; b <= 120; ++b) pts.push_back(stepHit(1.2 + 0.005 * b, -0.25 + 0.05 * k).cast<float>());
+    addStepLine(scan, pts,
+                k == 5 ? std::vector<std::pair<int, int>>{{0, 47}, {48, 92}, {93, 120}}
+                       : std::vector<std::pair<int, int>>{{0, 59}, {60, 92}, {93, 120}});
+    ASSERT_EQ(scan.lines.back().size(), 3u);
   }
   for (const bool with_points : {false, true}) {
     ScanLineGrouper g;
