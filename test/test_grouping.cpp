@@ -481,6 +481,23 @@ TEST(Grouping, AnOutermostLineIsCarriedToACreaseWithinItsLineSpacing) {
   EXPECT_NEAR(minCoord(planes[0].boundary, 0), 1.31, 1e-9);
 }
 
+TEST(Grouping, ACornerNearTwoCreasesGoesToWhereTheyMeetInEitherOrder) {
+  // A box's top (0.8-1.2 x 0.75-1.15 at 0.3 m) whose first corner ended 1 cm
+  // short of its front (x = 0.8) and 1.5 cm short of its side (y = 0.75):
+  // carried to both creases, to 5 mm from each, whichever plane comes first.
+  const Plane top = plane({0, 0, 1}, {{0.81, 0.765, 0.3}, {0.81, 1.15, 0.3}, {1.2, 1.15, 0.3}, {1.2, 0.765, 0.3}});
+  const Plane front = plane({-1, 0, 0}, {{0.8, 0.75, 0.0}, {0.8, 0.75, 0.295}, {0.8, 1.15, 0.295}, {0.8, 1.15, 0.0}});
+  const Plane side = plane({0, -1, 0}, {{0.8, 0.75, 0.0}, {1.2, 0.75, 0.0}, {1.2, 0.75, 0.295}, {0.8, 0.75, 0.295}});
+  for (const std::vector<Plane>& order : {std::vector<Plane>{top, front, side}, std::vector<Plane>{side, front, top}}) {
+    std::vector<Plane> planes = order;
+    closeCreases(planes, 0.08, 0.005, 15.0);
+    const Plane& t = planes[order[0].fit.normal.z() > 0.5 ? 0 : 2];
+    EXPECT_NEAR(t.boundary[0].x(), 0.805, 1e-9);
+    EXPECT_NEAR(t.boundary[0].y(), 0.755, 1e-9);
+    EXPECT_NEAR(t.boundary[2].x(), 1.2, 1e-9);  // its far corner has no crease
+  }
+}
+
 TEST(Grouping, PlanesThatDoNotMeetKeepTheirPolygons) {
   // A tread and a wall: the wall 0.2 m beyond the tread's end, farther than
   // the reach; then 6 cm beyond it, but beside another stretch of their

@@ -1114,7 +1114,8 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
   // A corner and where it goes.
   struct Move {
     std::size_t plane, corner;
-    Eigen::Vector3d to;
+    Eigen::Vector3d u;  // towards the plane's centroid, at right angles to the crease
+    double by;          // along u [m]
   };
   std::vector<Move> moves;
   for (std::size_t i = 0; i < n; ++i)
@@ -1164,18 +1165,39 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
           // (Corners within the margin on their own side stay.)
           if ((dist > margin || dist < -1e-9) && mayCarry(k, v, dist, own.u) && t >= other.lo - reach &&
               t <= other.hi + reach)
-            moves.push_back({k, v, ring[v] - (dist - margin) * own.u});
+            moves.push_back({k, v, own.u, margin - dist});
         }
       };
       carry(i, sa, sb);
       carry(j, sb, sa);
     }
-  // Moved after every pair was judged by the polygons as they were.
+  // Moved after every pair was judged by the polygons as they were. A
+  // corner near two creases (a box top's, by its front and its side) is
+  // carried to the nearer, and to where it meets the next one that runs at
+  // min_angle_deg or more to it, whatever order the pairs came in.
+  std::sort(moves.begin(), moves.end(), [](const Move& a, const Move& b) {
+    return std::make_tuple(a.plane, a.corner, std::abs(a.by), a.u.x(), a.u.y()) <
+           std::make_tuple(b.plane, b.corner, std::abs(b.by), b.u.x(), b.u.y());
+  });
+  const double min_sin = std::sin(min_angle_deg * kDeg);
   std::vector<double> outer(n, -1.0);  // the outer polygon's area before, of those that change
-  for (const Move& m : moves) {
-    Plane& p = planes[m.plane];
-    if (outer[m.plane] < 0.0) outer[m.plane] = polygonArea(p.boundary, p.fit);
-    p.boundary[m.corner] = m.to;
+  for (std::size_t m = 0; m < moves.size();) {
+    const Move& a = moves[m];
+    std::size_t e = m + 1;
+    for (; e < moves.size() && moves[e].plane == a.plane && moves[e].corner == a.corner; ++e) {
+    }
+    Eigen::Vector3d by = a.by * a.u;
+    for (std::size_t k = m + 1; k < e; ++k) {
+      const Move& b = moves[k];
+      const double c = a.u.dot(b.u);
+      if (a.u.cross(b.u).norm() < min_sin) continue;
+      by = (a.by - c * b.by) / (1.0 - c * c) * a.u + (b.by - c * a.by) / (1.0 - c * c) * b.u;
+      break;
+    }
+    Plane& p = planes[a.plane];
+    if (outer[a.plane] < 0.0) outer[a.plane] = polygonArea(p.boundary, p.fit);
+    p.boundary[a.corner] += by;
+    m = e;
   }
   for (std::size_t i = 0; i < n; ++i)
     if (outer[i] >= 0.0) planes[i].area = std::max(0.0, planes[i].area + polygonArea(planes[i].boundary, planes[i].fit) - outer[i]);

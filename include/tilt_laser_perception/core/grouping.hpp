@@ -122,6 +122,9 @@ bool chordsCross(const Eigen::Vector2d& a0, const Eigen::Vector2d& b0, const Eig
 /// saw the band across that line up to where its next line would lie, so
 /// those corners are carried across the line by up to the spacing of its two
 /// outermost lines (along it, where the line saw its ends, by `reach` at most).
+/// A corner near two common lines (a box top's, by its front and its side)
+/// goes to the nearer, and to where it meets the next one that runs at
+/// `min_angle_deg` or more to it; whatever the planes' order.
 void closeCreases(std::vector<Plane>& planes, double reach, double margin, double min_angle_deg);
 
 class ScanLineGrouper {
