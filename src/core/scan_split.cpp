@@ -289,6 +289,71 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
     }
   }
 
+  // Where two pieces meet at a crease, a beam belongs to the surface its ray
+  // meets: on the side of the corner's bearing that its own angle lies. The
+  // corner is where the two fitted lines meet, which the points of both
+  // pieces fix far better than range noise lets any one point beside it say
+  // which surface it is on (the farthest point from the chord, where the
+  // split cut, lies a beam or two either side of it). Each line is refitted
+  // to its piece as the corner moves its end, until the corner stays (three
+  // rounds at most). The corner moves the boundary only where the fits know
+  // its bearing to a beam (a shallow crease, two lines offset by a step, meet
+  // anywhere), where each piece keeps a segment's min_points, and where each
+  // beam that changes sides lies within the split's threshold of its new line.
+  struct Fit {
+    LineFit line;
+    double n, spread;  // points; their spread along the line, sum of s^2 [m^2]
+  };
+  const auto fitOf = [&](int first, int last) {
+    const Moments2 m = rangeMoments(first, last);
+    const LineFit f = fitLine(m);
+    const double mx = m.sx / m.n, my = m.sy / m.n, dx = f.direction.x(), dy = f.direction.y();
+    return Fit{f, m.n, (m.sxx - m.n * mx * mx) * dx * dx + 2.0 * (m.sxy - m.n * mx * my) * dx * dy +
+                           (m.syy - m.n * my * my) * dy * dy};
+  };
+  // A fit's offset error at `at` [m].
+  const auto offsetSigma = [](const Fit& f, const Eigen::Vector2d& at) {
+    const double s = f.line.direction.dot(at - f.line.centroid);
+    return f.line.rms * std::sqrt(1.0 / f.n + s * s / std::max(f.spread, 1e-12));
+  };
+  for (std::size_t i = 1; i < pieces_.size(); ++i) {
+    auto& p = pieces_[i - 1];
+    auto& q = pieces_[i];
+    const int lo = p.first + params_.min_points - 1;  // p keeps [p.first, lo] at least
+    const int hi = q.second - params_.min_points;     // q keeps [hi + 1, q.second]
+    if (lo > p.second || hi + 1 < q.first) continue;
+    for (int round = 0; round < 3; ++round) {
+      const Fit fa = fitOf(p.first, p.second), fb = fitOf(q.first, q.second);
+      const LineFit &a = fa.line, &b = fb.line;
+      const Eigen::Vector2d nb(-b.direction.y(), b.direction.x());
+      const double sin_ab = std::abs(a.direction.dot(nb));  // of the angle between the lines
+      if (!(sin_ab > 1e-6)) break;
+      const Eigen::Vector2d c = a.centroid + nb.dot(b.centroid - a.centroid) / a.direction.dot(nb) * a.direction;
+      const double range = c.norm();
+      if (!(range > 0.0)) break;
+      // The bearing's uncertainty: an offset error of one line moves the
+      // corner along the other, and across its ray by as much as the other
+      // line runs across it.
+      const Eigen::Vector2d across(-c.y() / range, c.x() / range);
+      const double ea = offsetSigma(fa, c) * b.direction.dot(across) / sin_ab;
+      const double eb = offsetSigma(fb, c) * a.direction.dot(across) / sin_ab;
+      if (std::hypot(ea, eb) > range * std::abs(trig_increment_)) break;
+      const double f = (std::atan2(c.y(), c.x()) - trig_angle_min_) / trig_increment_;
+      if (!(f >= lo && f < hi + 1)) break;
+      const int last = static_cast<int>(std::floor(f));
+      if (last == p.second) break;
+      const LineFit& to = last < p.second ? b : a;
+      const Eigen::Vector2d normal(-to.direction.y(), to.direction.x());
+      bool near = true;
+      for (int k = std::min(last, p.second) + 1; k <= std::max(last, p.second) && near; ++k)
+        near = !valid_[k] ||
+               std::abs(normal.dot(Eigen::Vector2d(x_[k], y_[k]) - to.centroid)) <= params_.threshold(r_[k]);
+      if (!near) break;
+      p.second = last;
+      q.first = last + 1;
+    }
+  }
+
   // A short piece along its own ray is a veil the per-beam test let through
   // (a step just short of its angle, a footprint's blend of the two sides):
   // the same rule as markVeils' at the scale of a piece. Its beams are veil
