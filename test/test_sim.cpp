@@ -62,6 +62,38 @@ TEST(Scene, ParsesObjectsIntoFaces) {
   EXPECT_NEAR(t2.area(), 0.30 * 1.2, 1e-12);
 }
 
+TEST(Scene, AWedgesTriangularSideIsPartOfItsBoxsSide) {
+  // A box 0.3 m high with a top rising along +y to 0.4 m: its front (x = 1)
+  // closed up to the top by a triangle that is part of the box's front.
+  const Scene s = Scene::parse(
+      "objects:\n"
+      "  - {type: box, name: b, center: [1.2, 0.2], size: [0.4, 0.4, 0.3]}\n"
+      "  - {type: rect, name: b_top, origin: [1.0, 0.0, 0.3], u: [0.4, 0, 0], v: [0, 0.4, 0.1]}\n"
+      "  - {type: rect, name: b, label: front, triangle: true, origin: [1.0, 0.4, 0.3], u: [0, -0.4, 0], v: [0, 0, 0.1]}\n");
+  int front = -1, tri = -1;
+  for (const auto& f : s.faces)
+    if (f.object == "b" && f.label == "front") (f.triangle ? tri : front) = f.id;
+  ASSERT_GE(front, 0);
+  ASSERT_GE(tri, 0);
+  EXPECT_NEAR(s.faces[tri].area(), 0.5 * 0.4 * 0.1, 1e-12);
+  EXPECT_EQ(s.faces[tri].corners().size(), 3u);
+  sim::Hit hit;
+  const Eigen::Vector3d x(1, 0, 0);
+  // Above the box's front where the top is higher (y = 0.3: up to 0.375 m):
+  // the triangle, reported as the front.
+  ASSERT_TRUE(s.raycast(Eigen::Vector3d(0, 0.3, 0.35), x, 10.0, hit));
+  EXPECT_NEAR(hit.t, 1.0, 1e-9);
+  EXPECT_EQ(hit.face, front);
+  // Above the triangle's slant (y = 0.1: the top there at 0.325 m): the ray
+  // passes over the front and meets the sloping top.
+  ASSERT_TRUE(s.raycast(Eigen::Vector3d(0, 0.1, 0.35), Eigen::Vector3d(1, 0, -0.02).normalized(), 10.0, hit));
+  EXPECT_NEAR(hit.t, 1.25, 1e-3);
+  EXPECT_NE(hit.face, front);
+  EXPECT_THROW(Scene::parse("objects:\n  - {type: rect, name: t, triangle: true, origin: [0, 0, 0], u: [1, 0, 0], "
+                            "v: [1, 1, 0]}\n"),
+               std::runtime_error);  // a triangle's sides at right angles
+}
+
 TEST(Scene, ErrorsNameTheObjectAndField) {
   try {
     Scene::parse("objects:\n  - {type: box, name: crate, center: [1, 2]}\n", "test.yaml");

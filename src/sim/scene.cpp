@@ -64,15 +64,22 @@ bool pointOnFace(const Face& f, const Eigen::Vector3d& p, double eps) {
   const double s = d.dot(f.u) / f.u.squaredNorm();
   const double t = d.dot(f.v) / f.v.squaredNorm();
   const double es = eps / f.u.norm(), et = eps / f.v.norm();
-  return s >= -es && s <= 1.0 + es && t >= -et && t <= 1.0 + et;
+  return s >= -es && s <= 1.0 + es && t >= -et && t <= 1.0 + et && (!f.triangle || s + t <= 1.0 + es + et);
 }
 
 }  // namespace
 
 int Scene::addFace(const std::string& object, const std::string& label, const Eigen::Vector3d& origin,
-                   const Eigen::Vector3d& u, const Eigen::Vector3d& v, double reflectivity) {
+                   const Eigen::Vector3d& u, const Eigen::Vector3d& v, double reflectivity, bool triangle) {
   Face f;
   f.id = static_cast<int>(faces.size());
+  f.surface = f.id;
+  for (const Face& g : faces)
+    if (g.object == object && g.label == label) {
+      f.surface = g.surface;
+      break;
+    }
+  f.triangle = triangle;
   f.object = object;
   f.label = label;
   f.origin = origin;
@@ -125,9 +132,9 @@ bool Scene::raycast(const Eigen::Vector3d& o, const Eigen::Vector3d& dir, double
     const Eigen::Vector3d d = o + t * dir - f.origin;
     const double s = d.dot(f.u) / f.u.squaredNorm();
     const double w = d.dot(f.v) / f.v.squaredNorm();
-    if (s < 0.0 || s > 1.0 || w < 0.0 || w > 1.0) continue;
+    if (s < 0.0 || s > 1.0 || w < 0.0 || w > 1.0 || (f.triangle && s + w > 1.0)) continue;
     best = t;
-    best_face = f.id;
+    best_face = f.surface;
     best_cos = std::abs(denom);
   }
   if (best_face < 0) return false;
@@ -163,7 +170,10 @@ Scene Scene::parse(const std::string& text, const std::string& where) {
       const auto org = vec(o, "origin", 3, c), u = vec(o, "u", 3, c), v = vec(o, "v", 3, c);
       const Eigen::Vector3d U(u[0], u[1], u[2]), V(v[0], v[1], v[2]);
       if (U.cross(V).norm() < 1e-9) c.fail("u and v must span a rectangle");
-      add("face", Eigen::Vector3d(org[0], org[1], org[2]), U, V);
+      const bool triangle = o["triangle"] && o["triangle"].as<bool>();
+      if (triangle && std::abs(U.dot(V)) > 1e-9 * U.norm() * V.norm()) c.fail("a triangle's u and v must be at right angles");
+      scene.addFace(c.object, o["label"] ? o["label"].as<std::string>() : std::string("face"),
+                    Eigen::Vector3d(org[0], org[1], org[2]), U, V, refl, triangle);
     } else if (type == "floor") {
       const auto ctr = vec(o, "center", 2, c), size = vec(o, "size", 2, c);
       const double z = num(o, "z", c, &zero);

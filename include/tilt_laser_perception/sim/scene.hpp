@@ -13,7 +13,12 @@
  *   - {type: box, name: box, center: [1.5, 0.8], size: [0.4, 0.4, 0.3], yaw: 0}
  *   - {type: stairs, name: stairs, start: [2, 0], yaw: 0, steps: 4, rise: 0.15, run: 0.30, width: 1.0}
  *   - {type: rect, name: r, origin: [0, 0, 0], u: [1, 0, 0], v: [0, 1, 0]}
+ *   - {type: rect, name: box, label: front, triangle: true, origin: [1.3, 1.0, 0.3], u: [0, -0.4, 0], v: [0, 0, 0.1]}
  * @endcode
+ * A rect's `label` (default "face") names its face; one with the label of a
+ * face already there (of the same object) is part of that face's surface.
+ * `triangle: true` keeps the half s + t <= 1 of it (u and v at right
+ * angles): a wedge's side above its box.
  * Every object takes `reflectivity` (0..1, default 0.5: the detection range is
  * 60 m * reflectivity, so 0.5 gives the data sheet's 30 m).
  */
@@ -27,7 +32,7 @@
 namespace tilt_laser_perception {
 namespace sim {
 
-/// A planar rectangle: origin + s*u + t*v for s, t in [0, 1].
+/// A planar rectangle: origin + s*u + t*v for s, t in [0, 1] (a triangle: s + t <= 1 too).
 struct Face {
   int id = 0;                 ///< index in Scene::faces
   std::string object;         ///< name of the object it belongs to
@@ -36,10 +41,23 @@ struct Face {
   Eigen::Vector3d normal;     ///< unit, u x v
   double reflectivity = 0.5;  ///< [0, 1]
 
-  Eigen::Vector3d center() const { return origin + 0.5 * (u + v); }
-  double area() const { return u.cross(v).norm(); }
-  /// The four corners, counter-clockwise about the normal.
-  std::vector<Eigen::Vector3d> corners() const { return {origin, origin + u, origin + u + v, origin + v}; }
+  /// Half of the rectangle: s + t <= 1 (u and v at right angles), a
+  /// triangle's corners origin, origin + u, origin + v.
+  bool triangle = false;
+  /// The face whose id a hit on this one reports: the first face of the
+  /// same object and label (a block's side that is a rectangle and a
+  /// triangle above it is one surface). Its own id otherwise.
+  int surface = 0;
+
+  Eigen::Vector3d center() const {
+    return triangle ? Eigen::Vector3d(origin + (u + v) / 3.0) : Eigen::Vector3d(origin + 0.5 * (u + v));
+  }
+  double area() const { return (triangle ? 0.5 : 1.0) * u.cross(v).norm(); }
+  /// The corners, counter-clockwise about the normal.
+  std::vector<Eigen::Vector3d> corners() const {
+    if (triangle) return {origin, origin + u, origin + v};
+    return {origin, origin + u, origin + u + v, origin + v};
+  }
 };
 
 /// A ray hit.
@@ -63,7 +81,7 @@ class Scene {
   /// Adds a face (computes id and normal) and returns its id. Call
   /// updateAdjacency() after the last face.
   int addFace(const std::string& object, const std::string& label, const Eigen::Vector3d& origin,
-              const Eigen::Vector3d& u, const Eigen::Vector3d& v, double reflectivity);
+              const Eigen::Vector3d& u, const Eigen::Vector3d& v, double reflectivity, bool triangle = false);
 
   /// Nearest hit of the ray origin + t*dir (dir unit) with t in (0, max_t].
   bool raycast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_t, Hit& hit) const;
