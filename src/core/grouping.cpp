@@ -1183,9 +1183,8 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
   std::vector<double> outer(n, -1.0);  // the outer polygon's area before, of those that change
   for (std::size_t m = 0; m < moves.size();) {
     const Move& a = moves[m];
-    std::size_t e = m + 1;
-    for (; e < moves.size() && moves[e].plane == a.plane && moves[e].corner == a.corner; ++e) {
-    }
+    std::size_t e = m + 1;  // the corner's moves are [m, e)
+    while (e < moves.size() && moves[e].plane == a.plane && moves[e].corner == a.corner) ++e;
     Eigen::Vector3d by = a.by * a.u;
     for (std::size_t k = m + 1; k < e; ++k) {
       const Move& b = moves[k];
