@@ -304,12 +304,10 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
     LineFit line;
     double n, spread;  // points; their spread along the line, sum of s^2 [m^2]
   };
-  const auto fitOf = [&](int first, int last) {
+  const auto fitOf = [&](int first, int last) {  // the spread along: the whole spread less the rms across
     const Moments2 m = rangeMoments(first, last);
     const LineFit f = fitLine(m);
-    const double mx = m.sx / m.n, my = m.sy / m.n, dx = f.direction.x(), dy = f.direction.y();
-    return Fit{f, m.n, (m.sxx - m.n * mx * mx) * dx * dx + 2.0 * (m.sxy - m.n * mx * my) * dx * dy +
-                           (m.syy - m.n * my * my) * dy * dy};
+    return Fit{f, m.n, m.sxx + m.syy - (m.sx * m.sx + m.sy * m.sy) / m.n - m.n * f.rms * f.rms};
   };
   // A fit's offset error at `at` [m].
   const auto offsetSigma = [](const Fit& f, const Eigen::Vector2d& at) {
