@@ -661,6 +661,28 @@ TEST(Grouping, TheCloseLinesOfASlowSweepMakeTheSamePlanes) {
   EXPECT_EQ(step.tread->segments, 30);
 }
 
+TEST(Grouping, PlanesThatTheLateJoinsBringTogetherAreOne) {
+  // A floor (z = 0) crossed by 24 lines 3 cm apart; lines 10-13 saw only a
+  // few beams of it (5 points: too few to grow a plane, so the plane of
+  // lines 0-9 closes and lines 14-23 start another, 15 cm away: they do not
+  // touch). The short pieces join late, and then the two planes meet and
+  // agree: they are judged again, and are one.
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k < 24; ++k) {
+    const double x = 1.0 + 0.03 * k;
+    if (k >= 10 && k <= 13)
+      lines.push_back({seg(k, 118, {x, -0.05, 0.0}, {x, 0.05, 0.0}, 5)});
+    else
+      lines.push_back({seg(k, 100, {x, -0.6, 0.0}, {x, 0.6, 0.0})});
+  }
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_EQ(planes[0].segments, 24);
+  EXPECT_EQ(planes[0].points, 20 * 40 + 4 * 5);
+  EXPECT_NEAR(std::abs(planes[0].fit.normal.z()), 1.0, 1e-9);
+}
+
 TEST(Grouping, ALineCutInPiecesPairsByItsLongestPiece) {
   // A riser x = 1.4 crossed by two lines. The split cut the second line at a
   // noise outlier: a short piece first (15 points, 2 cm off the riser) and

@@ -885,17 +885,20 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
       return;
     queue.push({score, a, b, version[a], version[b]});
   };
-  for (std::size_t ia = 0; ia < cand.size(); ++ia)
-    for (std::size_t ib = ia + 1; ib < cand.size(); ++ib) judge(cand[ia], cand[ib]);
-  while (!queue.empty()) {
-    const Candidate c = queue.top();
-    queue.pop();
-    if (regions_[c.a].dead || regions_[c.b].dead || version[c.a] != c.va || version[c.b] != c.vb) continue;
-    absorb(c.a, c.b);
-    ++version[c.a];
-    for (const int o : cand)
-      if (o != c.a && !regions_[o].dead) judge(c.a, o);
-  }
+  const auto mergeAgreeing = [&] {
+    for (std::size_t ia = 0; ia < cand.size(); ++ia)
+      for (std::size_t ib = ia + 1; ib < cand.size(); ++ib) judge(cand[ia], cand[ib]);
+    while (!queue.empty()) {
+      const Candidate c = queue.top();
+      queue.pop();
+      if (regions_[c.a].dead || regions_[c.b].dead || version[c.a] != c.va || version[c.b] != c.vb) continue;
+      absorb(c.a, c.b);
+      ++version[c.a];
+      for (const int o : cand)
+        if (o != c.a && !regions_[o].dead) judge(c.a, o);
+    }
+  };
+  mergeAgreeing();
   settlePairs();
   collect();
   // Segments on creases, again while segments move (a move refits both
@@ -936,6 +939,11 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   };
   for (std::size_t si = 0; si < segs_.size(); ++si) lateJoin(si, false);
   for (std::size_t si = segs_.size(); si-- > 0;) lateJoin(si, true);
+  // The late joins grew planes, and two of them may now meet (a strip between
+  // two pieces of a wall went to one of them): the merge judges its pairs again.
+  collect();
+  version.resize(regions_.size(), 0);  // (settlePairs may have made regions)
+  mergeAgreeing();
   if (points) cutAtCreases(cand, points);
 
   // Whether a region may make a plane at all (most are single segments).
