@@ -683,6 +683,27 @@ TEST(Grouping, PlanesThatTheLateJoinsBringTogetherAreOne) {
   EXPECT_NEAR(std::abs(planes[0].fit.normal.z()), 1.0, 1e-9);
 }
 
+TEST(Grouping, ARunOfShortPiecesBeforeAPlanesFirstLineJoinsItAsARunAfterItsLast) {
+  // A floor (z = 0) crossed by lines 3 cm apart; lines 0-4 and 16-20 saw
+  // only a few beams of it (5 points: too few to grow a plane), lines 5-15
+  // all of it. A piece joins late a plane with a member within two lines of
+  // its own: after the plane's last line they join one by one in the lines'
+  // order, and before its first line one by one against it.
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k <= 20; ++k) {
+    const double x = 1.0 + 0.03 * k;
+    if (k < 5 || k > 15)
+      lines.push_back({seg(k, 118, {x, -0.05, 0.0}, {x, 0.05, 0.0}, 5)});
+    else
+      lines.push_back({seg(k, 100, {x, -0.6, 0.0}, {x, 0.6, 0.0})});
+  }
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_EQ(planes[0].segments, 21);
+  EXPECT_EQ(planes[0].points, 11 * 40 + 10 * 5);
+}
+
 TEST(Grouping, ALineCutInPiecesPairsByItsLongestPiece) {
   // A riser x = 1.4 crossed by two lines. The split cut the second line at a
   // noise outlier: a short piece first (15 points, 2 cm off the riser) and

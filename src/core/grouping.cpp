@@ -913,18 +913,19 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   // normal (it makes no plane): at a slow sweep's reversal such a strip takes
   // the floor and the wall beside it alike (all lie in one scan plane), and
   // the floor's plane, seeded beyond it, is judged against them here. Once in
-  // the lines' order, and a strip's once more against it, so a plane takes a
-  // run of them from either end.
+  // the lines' order and once against it, so a plane takes a run of them from
+  // either end (a run of short pieces before a plane's first line joins it
+  // line by line backwards as after its last forwards).
   std::vector<char> strip_region(regions_.size(), 0);
   for (const int ri : cand) strip_region[ri] = spreadAcross(regions_[ri]) <= kPlanarSpread;
-  const auto lateJoin = [&](std::size_t si, bool strips_only) {
+  const auto lateJoin = [&](std::size_t si) {
     const int ri = seg_region_[si];
     const bool alive = ri >= 0 && !regions_[ri].dead;
     const bool grouped = alive && regions_[ri].members.size() >= 2;
     // (A strip that gave all its other segments away is still one: its last
     // segment goes as they went.)
     const bool strip = alive && strip_region[ri];
-    if ((grouped && !strip) || (strips_only && !strip)) return;
+    if (grouped && !strip) return;
     const Segment3& s = segs_[si];
     if (s.moments.n < 3) return;
     const int best = bestFit(s, cand, ri, 2, true);
@@ -937,8 +938,8 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     }
     addMember(best, static_cast<int>(si));
   };
-  for (std::size_t si = 0; si < segs_.size(); ++si) lateJoin(si, false);
-  for (std::size_t si = segs_.size(); si-- > 0;) lateJoin(si, true);
+  for (std::size_t si = 0; si < segs_.size(); ++si) lateJoin(si);
+  for (std::size_t si = segs_.size(); si-- > 0;) lateJoin(si);
   // The late joins grew planes, and two of them may now meet (a strip between
   // two pieces of a wall went to one of them): the merge judges its pairs again.
   collect();
