@@ -237,6 +237,30 @@ def test_cardboard_box_gives_its_four_faces(tmp_path):
         assert f and float(f.group(1)) >= 55.0, (extra, text)
 
 
+@pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "first_scan.bag")),
+                    reason="../shared/data/real/tilting_lidar_scanner is absent: the real recording is skipped")
+def test_first_scan_holds_its_table_top_and_wall_whichever_way_the_lines_come(tmp_path):
+    # The stand's first test scan: a table top 17 cm below the laser (the
+    # lowest level, seen 0.14-0.7 m away) and a wall 1.47 m away. The wall's
+    # largest plane holds 85 % of it in the first sweep; the table top's 55 %
+    # (its near pieces tilt by the laser's own near-range bias:
+    # doc/notes/noise_model.md), the same within 1 % with the lines reversed.
+    # (The wall reversed is not yet as whole: 75 %.)
+    out = str(tmp_path / "first_scan_tlp.bag")
+    run(sys.executable, IMPORT, os.path.join(SHARED, "first_scan.bag"), out)
+    shares = {}
+    for extra in ([], ["--reverse"]):
+        text = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--room", *extra)
+        first = text.split("sweep 1:")[0]
+        f = re.search(r"floor at z=([-\d.]+) m: \d+ points, ([\d.]+) % in plane .* largest wall \(normal (\d+) deg, "
+                      r"([-\d.]+) m\): \d+ points, ([\d.]+) % in plane", first)
+        assert f and abs(float(f.group(4)) - 1.47) < 0.03, text
+        shares[tuple(extra)] = (float(f.group(2)), float(f.group(5)))
+    fwd, rev = shares[()], shares[("--reverse",)]
+    assert fwd[0] >= 55.0 and abs(fwd[0] - rev[0]) <= 1.0, shares
+    assert fwd[1] >= 85.0, shares
+
+
 def test_a_spinning_heads_recording_grouped_each_half_turn(tmp_path):
     # make_scene_bag --spin: the stairs seen by the spinning head (config/head_spin.yaml, head_spin_joint of
     # urdf/hrp4_head_spin.urdf) at 1 rad/s for 10 s; group_bag --spin-span pi cuts a sweep each half turn:

@@ -170,7 +170,9 @@ def test_the_nodding_sick_scans_ceiling_with_the_line_term():
     assert est["ceiling"][0] > 50.0 and rev["ceiling"][0] > 50.0, outs["estimated"] + outs["reversed"]
     assert abs(est["ceiling"][0] - rev["ceiling"][0]) < 1.0, outs["estimated"] + outs["reversed"]
     assert est["ceiling"][1] >= 80.0, outs["estimated"]
-    assert est["floor"][0] > 55.0 and rev["floor"][0] > 55.0, outs["estimated"] + outs["reversed"]
+    # The floor 65 % in its largest plane either way (62 % one way before the
+    # merge judged again the planes that the late joins brought together).
+    assert est["floor"][0] > 65.0 and rev["floor"][0] > 65.0, outs["estimated"] + outs["reversed"]
 
 
 def test_a_spinning_lasers_flat_cloud_in_scan_order(tmp_path):
