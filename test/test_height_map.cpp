@@ -162,6 +162,33 @@ TEST(HeightMap, AFacesPointsMarkTheCellsBehindItWithItsTop) {
   }
 }
 
+TEST(HeightMap, APointOfNoPlaneWithinRangeNoiseOfAFaceIsTheFaces) {
+  // boxFront, and a second line whose points no plane took (a short piece
+  // of a spinning line down the face): 10 of them 1.4 cm in front of the
+  // face at z 0.1 (2.5 cm along their rays, within 3 sigma of the 1 cm range
+  // noise), 10 of them 6 cm in front (11 cm along their rays: an obstacle).
+  std::vector<Eigen::Vector3f> on;
+  for (int k = 0; k < 20; ++k) on.emplace_back(0.7988f, -0.095f + 0.01f * k, 0.2f);
+  SweepResult s = boxFront(on);
+  SweepLine loose;
+  loose.origin = Eigen::Vector3f(0.0f, 0.0f, 1.3f);
+  for (int k = 0; k < 10; ++k) loose.points.emplace_back(0.785f, -0.095f + 0.01f * k, 0.1f);
+  for (int k = 0; k < 10; ++k) loose.points.emplace_back(0.74f, 0.005f + 0.01f * k, 0.1f);
+  s.lines.push_back(loose);
+  HeightMapGrid g;
+  buildHeightMap(s, mapParams(0.0, -1.0, 200, 200), g);
+  for (int k = 0; k < 10; ++k) {
+    const int iy = static_cast<int>((-0.095 + 0.01 * k + 1.0) / 0.01);
+    EXPECT_EQ(g.classes[g.index(78, iy)], CellClass::Floor) << k;  // x 0.78-0.79: the point's own cell
+    EXPECT_NEAR(g.heights[g.index(80, iy)], 0.3, 1e-4) << k;    // behind the face: its top
+  }
+  for (int k = 0; k < 10; ++k) {
+    const int iy = static_cast<int>((0.005 + 0.01 * k + 1.0) / 0.01);
+    EXPECT_EQ(g.classes[g.index(74, iy)], CellClass::Obstacle) << k;
+    EXPECT_NEAR(g.heights[g.index(74, iy)], 0.1, 1e-4) << k;
+  }
+}
+
 TEST(HeightMap, AFaceAtAnAngleMarksOnlyTheCellsWhoseCentresLieBehindIt) {
   // An upright face yawed 30 degrees (x = 0.8 + 0.577 (y + 0.1), facing the
   // sensor): it crosses cells at an angle. Its points mark cells whose

@@ -590,6 +590,36 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     out.classes[c] = CellClass::Obstacle;
     out.plane_ids[c] = -1;
   };
+  // The face (a plane too steep to walk) that explains a point of no plane:
+  // the point lies within range noise of it along its ray (the noise model's
+  // significance sigmas) and beside its outline. Such a point is the face's
+  // (a riser's beams in a short piece no plane took, scattered by range noise
+  // over the cells in front of it and behind it), marked as its own points are.
+  const auto faceExplaining = [&](const Eigen::Vector3f& point, const Eigen::Vector3f& origin) -> const Plane* {
+    const Eigen::Vector3d q = point.cast<double>();
+    const Eigen::Vector3d ray = q - origin.cast<double>();
+    const double range = ray.norm();
+    if (!(range > 0.0)) return nullptr;
+    const double tol = p.noise.significance * p.noise.rangeSigma(range);
+    const Plane* best = nullptr;
+    double best_along = tol;
+    for (const Plane& pl : sweep.planes) {
+      if (pl.id < 0 || walkable[pl.id]) continue;
+      const double off = pl.fit.normal.dot(q) - pl.fit.offset;
+      const double cos_ray = std::abs(pl.fit.normal.dot(ray)) / range;
+      // Along the ray: the range error that would put the point on the face.
+      if (!(std::abs(off) <= best_along * cos_ray)) continue;
+      const FaceTop& top = faceTop(pl);
+      if (top.top.empty()) continue;
+      const Eigen::Vector3d on = q - off * pl.fit.normal;
+      const double u = top.axis.dot(on.head<2>()) - top.u0;
+      if (u < 0.0 || u > (top.top.size() - 1) * p.resolution || on.z() < top.z_lo - tol || on.z() > top.z_hi + tol)
+        continue;
+      best = &pl;
+      best_along = std::abs(off) / cos_ray;
+    }
+    return best;
+  };
   std::size_t si = 0;
   for (std::size_t li = 0; li < sweep.lines.size(); ++li) {
     const std::vector<Eigen::Vector3f>& pts = sweep.lines[li].points;
@@ -600,7 +630,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       if (!inMap(pts[i])) return;
       while (ei < edges.size() && edges[ei].first < i) ++ei;
       if (ei < edges.size() && edges[ei].first == i && edges[ei].second == EdgeKind::Veil) return;
-      mark(pts[i], nullptr);
+      mark(pts[i], faceExplaining(pts[i], sweep.lines[li].origin));
     };
     // Beams outside the line's returns are not looked at (no point to load).
     auto [cursor, end] = sweep.lines[li].returns();

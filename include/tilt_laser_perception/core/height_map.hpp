@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "tilt_laser_perception/core/noise_model.hpp"
 #include "tilt_laser_perception/core/sweep.hpp"
 
 namespace tilt_laser_perception {
@@ -43,6 +44,10 @@ struct HeightMapParams {
   double floor_tolerance = 0.03;     ///< cells within this of the floor's height are floor [m]
   double obstacle_min_height = 0.05; ///< points this far above a cell's surface make it an obstacle [m]
   double max_step_height = 0.2;      ///< steep planes no taller than this are step faces (risers), not obstacles [m]
+  /// The rig's range noise and the one significance level: a point of no
+  /// plane within significance range sigmas of a face along its ray, beside
+  /// its outline, is that face's point.
+  NoiseModel noise;
 };
 
 struct HeightMapGrid {
