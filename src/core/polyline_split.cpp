@@ -367,7 +367,9 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
       }
     return 1.4826 * median(100) / std::sqrt(1.5);
   };
-  out.sigma = std::max(sigmaOf(0, 1), sigmaOf(1, 0));
+  const double rows = sigmaOf(0, 1), columns = sigmaOf(1, 0);
+  out.sigma = std::max(rows, columns);
+  out.along = lines_are_rows ? rows : columns;
   out.step = medianNeighbourAngle(points, width, height, lines_are_rows ? 0 : 1, lines_are_rows ? 1 : 0, o, stride);
   return out;
 }
@@ -430,16 +432,33 @@ double estimateLineSigma(const std::vector<Eigen::Vector3f>& points, int width, 
   return std::sqrt(std::max(0.0, so * so - noise_share * sd * sd));
 }
 
-double estimateLineSigma(const SweepResult& sweep) {
+namespace {
+/// A sweep's lines as the rows of an organized cloud (every line as long as
+/// the longest, NaN where a beam saw nothing); its width (0: none).
+std::size_t organizeSweep(const SweepResult& sweep, std::vector<Eigen::Vector3f>& points) {
   std::size_t width = 0;
   for (const SweepLine& l : sweep.lines) width = std::max(width, l.points.size());
-  if (width == 0 || sweep.lines.size() < 4) return 0.0;
-  std::vector<Eigen::Vector3f> points(width * sweep.lines.size(),
-                                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  points.assign(width * sweep.lines.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   for (std::size_t r = 0; r < sweep.lines.size(); ++r)
     std::copy(sweep.lines[r].points.begin(), sweep.lines[r].points.end(), points.begin() + r * width);
+  return width;
+}
+}  // namespace
+
+double estimateLineSigma(const SweepResult& sweep) {
+  std::vector<Eigen::Vector3f> points;
+  const std::size_t width = organizeSweep(sweep, points);
+  if (width == 0 || sweep.lines.size() < 4) return 0.0;
   return estimateLineSigma(points, static_cast<int>(width), static_cast<int>(sweep.lines.size()), true,
                            meanOrigin(sweep));
+}
+
+CloudNoise estimateCloudNoise(const SweepResult& sweep) {
+  std::vector<Eigen::Vector3f> points;
+  const std::size_t width = organizeSweep(sweep, points);
+  if (width == 0) return CloudNoise();
+  return estimateCloudNoise(points, static_cast<int>(width), static_cast<int>(sweep.lines.size()), true,
+                            meanOrigin(sweep));
 }
 
 double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping) {

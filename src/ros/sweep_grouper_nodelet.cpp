@@ -496,8 +496,10 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   sweeps_out_.add(InputHealth::now());
   ++published_;
   checkCalibration(&sweep);
-  // The noise model's line term as this sweep shows it (after the outputs: not in the latency).
+  // The noise model as this sweep shows it, its range noise and its line
+  // term (after the outputs: not in the latency).
   last_line_sigma_deg_ = core::estimateLineSigma(sweep) * 180.0 / M_PI;
+  last_range_noise_mm_ = core::estimateCloudNoise(sweep).along * 1e3;
   // The clouds for rviz are built only while somebody listens.
   const auto publishCloud = [&](ros::Publisher& pub, const auto& fill) {
     if (pub.getNumSubscribers() == 0) return;
@@ -557,6 +559,7 @@ void SweepGrouperNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& 
   stat.add("latency after the last line [ms] (last sweep)", last_latency_ms_);
   stat.addf("line pose error [deg] (last sweep, estimated; ~line_sigma_deg applied)", "%.3f (%.3f)",
             last_line_sigma_deg_, sweep_params_.grouping.line_sigma * 180.0 / M_PI);
+  stat.addf("range noise [mm] (last sweep, estimated along its lines)", "%.1f", last_range_noise_mm_);
   if (fused_) {
     stat.add("fused map: distance walked [m]", fused_->travelled());
     stat.add("fused map: terrain planes", fused_->map().planes().size());

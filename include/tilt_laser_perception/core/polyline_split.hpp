@@ -77,6 +77,9 @@ struct CloudNoise {
   /// the larger of the two. Across the scan lines it holds what differs from
   /// line to line too (a tilting rig's offsets between its lines).
   double sigma = 0.0;
+  /// The same along the scan lines alone: the range noise without what
+  /// differs from line to line [m].
+  double along = 0.0;
   double step = 0.0;  ///< the median angle between neighbouring beams along the scan lines [rad]
 };
 /// Zeros when fewer than 100 neighbours are valid.
@@ -102,6 +105,9 @@ double estimateLineSigma(const std::vector<Eigen::Vector3f>& points, int width, 
 /// (every line as long as the longest, NaN where a beam saw nothing), seen
 /// from the laser's mean place [rad].
 double estimateLineSigma(const SweepResult& sweep);
+/// The range noise of a finished sweep, as estimateCloudNoise gives it on
+/// the same organized cloud (its `along`: the rig's range noise alone).
+CloudNoise estimateCloudNoise(const SweepResult& sweep);
 
 /// The noise the default tolerances are made for: they hold with the
 /// UTM-30LX's 1 cm on the tilting rig, whose lines are offset from each other

@@ -118,7 +118,7 @@ class SweepGrouperNodelet : public nodelet::Nodelet {
   std::string last_warning_, chain_error_;
   unsigned long exceptions_ = 0;
   unsigned long published_ = 0;
-  double last_latency_ms_ = 0.0, last_group_ms_ = 0.0, last_line_sigma_deg_ = 0.0;
+  double last_latency_ms_ = 0.0, last_group_ms_ = 0.0, last_line_sigma_deg_ = 0.0, last_range_noise_mm_ = 0.0;
   std::size_t last_planes_ = 0;
   // The live calibration check (~calibration_check_sweeps; 0: off).
   int calibration_check_sweeps_ = 8;
