@@ -36,7 +36,7 @@ def summarize(evaluate, seeds, args):
     front = lambda k: 100 * sum(float(r[k]) for r in front_rows) / max(len(front_rows), 1)
     latencies = sorted(float(r["latency_ms"]) for r in rows) if "latency_ms" in rows[0] else [float("nan")]
     return {
-        "sweeps": n, "correct": tot("correct"), "true_faces": tot("true_faces"),
+        "sweeps": n, "correct": tot("correct"), "true_faces": tot("true_faces"), "lines": mean("lines"),
         "missed": mean("missed"), "noise": mean("noise"), "under": mean("under"),
         "normal_err_deg": mean("normal_err_deg"),  # as evaluate's summary line: the sweeps' means
         "rmse_cm": 100 * mean("heightmap_rmse_m"), "fused_rmse_cm": 100 * mean("fused_rmse_m"),
