@@ -661,22 +661,31 @@ TEST(Grouping, TheCloseLinesOfASlowSweepMakeTheSamePlanes) {
   EXPECT_EQ(step.tread->segments, 30);
 }
 
+namespace {
+/// A floor (z = 0) crossed by `lines` lines 3 cm apart from x = 1 m, each
+/// 40 points across it (y +-0.6 m), but those `short_piece` names, which saw
+/// only 5 beams of it (y +-0.05 m: too few points to grow a plane).
+std::vector<std::vector<Segment3>> floorWithShortPieces(int lines, const std::function<bool(int)>& short_piece) {
+  std::vector<std::vector<Segment3>> out;
+  for (int k = 0; k < lines; ++k) {
+    const double x = 1.0 + 0.03 * k;
+    if (short_piece(k))
+      out.push_back({seg(k, 118, {x, -0.05, 0.0}, {x, 0.05, 0.0}, 5)});
+    else
+      out.push_back({seg(k, 100, {x, -0.6, 0.0}, {x, 0.6, 0.0})});
+  }
+  return out;
+}
+}  // namespace
+
 TEST(Grouping, PlanesThatTheLateJoinsBringTogetherAreOne) {
   // A floor (z = 0) crossed by 24 lines 3 cm apart; lines 10-13 saw only a
   // few beams of it (5 points: too few to grow a plane, so the plane of
   // lines 0-9 closes and lines 14-23 start another, 15 cm away: they do not
   // touch). The short pieces join late, and then the two planes meet and
   // agree: they are judged again, and are one.
-  std::vector<std::vector<Segment3>> lines;
-  for (int k = 0; k < 24; ++k) {
-    const double x = 1.0 + 0.03 * k;
-    if (k >= 10 && k <= 13)
-      lines.push_back({seg(k, 118, {x, -0.05, 0.0}, {x, 0.05, 0.0}, 5)});
-    else
-      lines.push_back({seg(k, 100, {x, -0.6, 0.0}, {x, 0.6, 0.0})});
-  }
   ScanLineGrouper g;
-  const auto planes = group(lines, g);
+  const auto planes = group(floorWithShortPieces(24, [](int k) { return k >= 10 && k <= 13; }), g);
   ASSERT_EQ(planes.size(), 1u);
   EXPECT_EQ(planes[0].segments, 24);
   EXPECT_EQ(planes[0].points, 20 * 40 + 4 * 5);
@@ -689,16 +698,8 @@ TEST(Grouping, ARunOfShortPiecesBeforeAPlanesFirstLineJoinsItAsARunAfterItsLast)
   // all of it. A piece joins late a plane with a member within two lines of
   // its own: after the plane's last line they join one by one in the lines'
   // order, and before its first line one by one against it.
-  std::vector<std::vector<Segment3>> lines;
-  for (int k = 0; k <= 20; ++k) {
-    const double x = 1.0 + 0.03 * k;
-    if (k < 5 || k > 15)
-      lines.push_back({seg(k, 118, {x, -0.05, 0.0}, {x, 0.05, 0.0}, 5)});
-    else
-      lines.push_back({seg(k, 100, {x, -0.6, 0.0}, {x, 0.6, 0.0})});
-  }
   ScanLineGrouper g;
-  const auto planes = group(lines, g);
+  const auto planes = group(floorWithShortPieces(21, [](int k) { return k < 5 || k > 15; }), g);
   ASSERT_EQ(planes.size(), 1u);
   EXPECT_EQ(planes[0].segments, 21);
   EXPECT_EQ(planes[0].points, 11 * 40 + 10 * 5);
