@@ -854,7 +854,9 @@ TEST(SceneEval, EachSweepShowsItsLinesPoseError) {
     o.sweeps = 4;
     if (realistic) sim::setRealistic(o.rig, o.noise);
     std::vector<double> deg;
-    o.on_sweep = [&](const core::SweepResult& sw) { deg.push_back(core::estimateLineSigma(sw) * 180.0 / M_PI); };
+    o.on_sweep = [&](const core::SweepResult& sw) {
+      deg.push_back(core::estimateSweepNoise(sw).line_sigma * 180.0 / M_PI);
+    };
     sim::evaluateScene(o);
     std::sort(deg.begin(), deg.end());
     return deg.empty() ? -1.0 : deg[deg.size() / 2];
@@ -869,7 +871,7 @@ TEST(SceneEval, EachSweepShowsItsLinesPoseError) {
 
 TEST(SceneEval, EachSweepShowsItsRangeNoise) {
   // The grouper's diagnostic and group_bag's print: the range noise measured
-  // along each sweep's lines (core::estimateCloudNoise(sweep).along). The
+  // along each sweep's lines (core::estimateSweepNoise(sweep).range.along). The
   // simulated UTM-30LX's is the data sheet's 10 mm; without noise, none.
   const auto measure = [](sim::NoiseMode mode) {
     sim::SceneEvalOptions o;
@@ -877,7 +879,7 @@ TEST(SceneEval, EachSweepShowsItsRangeNoise) {
     o.sweeps = 3;
     o.noise.mode = mode;
     std::vector<double> mm;
-    o.on_sweep = [&](const core::SweepResult& sw) { mm.push_back(core::estimateCloudNoise(sw).along * 1e3); };
+    o.on_sweep = [&](const core::SweepResult& sw) { mm.push_back(core::estimateSweepNoise(sw).range.along * 1e3); };
     sim::evaluateScene(o);
     std::sort(mm.begin(), mm.end());
     return mm.empty() ? -1.0 : mm[mm.size() / 2];

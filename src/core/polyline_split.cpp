@@ -432,33 +432,20 @@ double estimateLineSigma(const std::vector<Eigen::Vector3f>& points, int width, 
   return std::sqrt(std::max(0.0, so * so - noise_share * sd * sd));
 }
 
-namespace {
-/// A sweep's lines as the rows of an organized cloud (every line as long as
-/// the longest, NaN where a beam saw nothing); its width (0: none).
-std::size_t organizeSweep(const SweepResult& sweep, std::vector<Eigen::Vector3f>& points) {
+SweepNoiseEstimate estimateSweepNoise(const SweepResult& sweep) {
+  SweepNoiseEstimate out;
   std::size_t width = 0;
   for (const SweepLine& l : sweep.lines) width = std::max(width, l.points.size());
-  points.assign(width * sweep.lines.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  if (width == 0) return out;
+  std::vector<Eigen::Vector3f> points(width * sweep.lines.size(),
+                                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   for (std::size_t r = 0; r < sweep.lines.size(); ++r)
     std::copy(sweep.lines[r].points.begin(), sweep.lines[r].points.end(), points.begin() + r * width);
-  return width;
-}
-}  // namespace
-
-double estimateLineSigma(const SweepResult& sweep) {
-  std::vector<Eigen::Vector3f> points;
-  const std::size_t width = organizeSweep(sweep, points);
-  if (width == 0 || sweep.lines.size() < 4) return 0.0;
-  return estimateLineSigma(points, static_cast<int>(width), static_cast<int>(sweep.lines.size()), true,
-                           meanOrigin(sweep));
-}
-
-CloudNoise estimateCloudNoise(const SweepResult& sweep) {
-  std::vector<Eigen::Vector3f> points;
-  const std::size_t width = organizeSweep(sweep, points);
-  if (width == 0) return CloudNoise();
-  return estimateCloudNoise(points, static_cast<int>(width), static_cast<int>(sweep.lines.size()), true,
-                            meanOrigin(sweep));
+  const int w = static_cast<int>(width), h = static_cast<int>(sweep.lines.size());
+  const Eigen::Vector3d origin = meanOrigin(sweep);
+  out.range = estimateCloudNoise(points, w, h, true, origin);
+  if (sweep.lines.size() >= 4) out.line_sigma = estimateLineSigma(points, w, h, true, origin);
+  return out;
 }
 
 double scaleTolerancesToNoise(const CloudNoise& noise, SplitParams& split, GroupingParams& grouping) {

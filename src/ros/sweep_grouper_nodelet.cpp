@@ -498,8 +498,9 @@ void SweepGrouperNodelet::publish(const core::SweepResult& sweep) {
   checkCalibration(&sweep);
   // The noise model as this sweep shows it, its range noise and its line
   // term (after the outputs: not in the latency).
-  last_line_sigma_deg_ = core::estimateLineSigma(sweep) * 180.0 / M_PI;
-  last_range_noise_mm_ = core::estimateCloudNoise(sweep).along * 1e3;
+  const core::SweepNoiseEstimate noise = core::estimateSweepNoise(sweep);
+  last_line_sigma_deg_ = noise.line_sigma * 180.0 / M_PI;
+  last_range_noise_mm_ = noise.range.along * 1e3;
   // The clouds for rviz are built only while somebody listens.
   const auto publishCloud = [&](ros::Publisher& pub, const auto& fill) {
     if (pub.getNumSubscribers() == 0) return;

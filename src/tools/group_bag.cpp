@@ -175,9 +175,10 @@ int main(int argc, char** argv) {
     std::sort(planes.begin(), planes.end(), [](const core::Plane& a, const core::Plane& b) { return a.points > b.points; });
     std::printf("sweep %d: %zu lines, %zu planes; finish %.2f ms\n", sweeps, sw.lines.size(), sw.planes.size(),
                 sw.finish_seconds * 1e3);
+    const core::SweepNoiseEstimate noise = core::estimateSweepNoise(sw);
     std::printf("  noise model, estimated from the sweep: range noise %.1f mm along its lines, line pose error "
                 "%.3f deg (0: too few patches to tell)\n",
-                core::estimateCloudNoise(sw).along * 1e3, core::estimateLineSigma(sw) * 180.0 / M_PI);
+                noise.range.along * 1e3, noise.line_sigma * 180.0 / M_PI);
     for (std::size_t k = 0; k < planes.size() && k < 6; ++k) {
       const core::Plane& p = planes[k];
       std::printf("  plane %d: %d points, %.2f m^2, normal (%.3f %.3f %.3f), offset %.3f m, rms %.4f m\n", p.id,

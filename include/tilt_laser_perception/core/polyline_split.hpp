@@ -101,13 +101,14 @@ CloudNoise estimateCloudNoise(const std::vector<Eigen::Vector3f>& points, int wi
 double estimateLineSigma(const std::vector<Eigen::Vector3f>& points, int width, int height, bool lines_are_rows,
                          const Eigen::Vector3d& origin, int step = 1);
 
-/// The same on a finished sweep: its lines the rows of an organized cloud
-/// (every line as long as the longest, NaN where a beam saw nothing), seen
-/// from the laser's mean place [rad].
-double estimateLineSigma(const SweepResult& sweep);
-/// The range noise of a finished sweep, as estimateCloudNoise gives it on
-/// the same organized cloud (its `along`: the rig's range noise alone).
-CloudNoise estimateCloudNoise(const SweepResult& sweep);
+/// The noise model as a finished sweep shows it: its lines the rows of an
+/// organized cloud (every line as long as the longest, NaN where a beam saw
+/// nothing), seen from the laser's mean place.
+struct SweepNoiseEstimate {
+  CloudNoise range;         ///< estimateCloudNoise's (its `along`: the rig's range noise alone)
+  double line_sigma = 0.0;  ///< estimateLineSigma's [rad] (0 with fewer than 4 lines)
+};
+SweepNoiseEstimate estimateSweepNoise(const SweepResult& sweep);
 
 /// The noise the default tolerances are made for: they hold with the
 /// UTM-30LX's 1 cm on the tilting rig, whose lines are offset from each other
