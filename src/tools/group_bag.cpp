@@ -24,8 +24,8 @@
 #include <vector>
 
 #include "bag_pipeline.hpp"
-#include "tilt_laser_perception/core/polyline_split.hpp"
 #include "tilt_laser_perception/core/height_map.hpp"
+#include "tilt_laser_perception/core/polyline_split.hpp"
 #include "tilt_laser_perception/io/pcd.hpp"
 
 using namespace tilt_laser_perception;
