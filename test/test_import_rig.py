@@ -189,20 +189,22 @@ def test_room_240_imports_and_groups(tmp_path):
                   r"([-\d.]+) m\): (\d+) points, ([\d.]+) % in plane", grouped)
     assert f, grouped
     # The floor and the side wall (y = 1.13 m) each hold 80 % of their points
-    # in one plane (52.7 % of the wall before a strip of lines millimetres
-    # apart had to spread out of its scan plane to fix a normal), the wall
-    # 88 % (84.3 % before the merge judged again the planes that the late
-    # joins brought together).
+    # in one plane. The wall's points are all those within 5 cm of it but a
+    # level plane's: 84 % of them in one plane. (Until the thirteenth session
+    # the judge left out the wall's points that a tilted plane took, about
+    # 9,000 of them, and said 91-94 % depending on how many went astray:
+    # doc/notes/noise_model.md.)
     assert int(f.group(2)) > 5000 and float(f.group(3)) >= 80.0, grouped
     assert abs(int(f.group(4)) - 90) <= 2 and abs(float(f.group(5)) - 1.13) < 0.03, grouped
-    assert int(f.group(6)) > 80000 and float(f.group(7)) >= 88.0, grouped
-    # The lines in the other order: the wall 83 % in one plane (76.8 % before:
-    # strips of lines between its two pieces went to one of them only late).
+    assert int(f.group(6)) > 90000 and float(f.group(7)) >= 82.0, grouped
+    # The lines in the other order: the wall 60 % in one plane, its part beside
+    # the stand (x < 0.2 m) a plane of its own 6 degrees off it (the order
+    # still matters here: issue 38).
     rev = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--floor-z", "0.10", "--reverse")
     r = re.search(r"floor at z=[-\d.]+ m: \d+ points, ([\d.]+) % in plane .* largest wall \(normal (\d+) deg, "
-                  r"([-\d.]+) m\): \d+ points, ([\d.]+) % in plane", rev)
+                  r"([-\d.]+) m\): (\d+) points, ([\d.]+) % in plane", rev)
     assert r and float(r.group(1)) >= 80.0 and abs(float(r.group(3)) - 1.13) < 0.03, rev
-    assert float(r.group(4)) >= 83.0, rev
+    assert int(r.group(4)) == int(f.group(6)) and float(r.group(5)) >= 57.0, rev
 
 
 @pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "cardboard_box.bag")),
@@ -241,11 +243,13 @@ def test_cardboard_box_gives_its_four_faces(tmp_path):
                     reason="../shared/data/real/tilting_lidar_scanner is absent: the real recording is skipped")
 def test_first_scan_holds_its_table_top_and_wall_whichever_way_the_lines_come(tmp_path):
     # The stand's first test scan: a table top 17 cm below the laser (the
-    # lowest level, seen 0.14-0.7 m away) and a wall 1.47 m away. The wall's
-    # largest plane holds 85 % of it in the first sweep; the table top's 55 %
-    # (its near pieces tilt by the laser's own near-range bias:
-    # doc/notes/noise_model.md), the same within 1 % with the lines reversed.
-    # (The wall reversed is not yet as whole: 75 %.)
+    # lowest level, seen 0.14-0.7 m away) and a wall 1.47 m away. The table
+    # top's largest plane holds 55 % of it (its near pieces tilt by the
+    # laser's own near-range bias: doc/notes/noise_model.md), the same within
+    # 1 % with the lines reversed. The wall is two surfaces 3 cm apart; its
+    # largest plane holds 47 % of its points forward (a strip fitted 17
+    # degrees off it holds 15,000: the judge counted them out until the
+    # thirteenth session and said 87 %) and 75 % reversed.
     out = str(tmp_path / "first_scan_tlp.bag")
     run(sys.executable, IMPORT, os.path.join(SHARED, "first_scan.bag"), out)
     shares = {}
@@ -258,7 +262,7 @@ def test_first_scan_holds_its_table_top_and_wall_whichever_way_the_lines_come(tm
         shares[tuple(extra)] = (float(f.group(2)), float(f.group(5)))
     fwd, rev = shares[()], shares[("--reverse",)]
     assert fwd[0] >= 55.0 and abs(fwd[0] - rev[0]) <= 1.0, shares
-    assert fwd[1] >= 85.0, shares
+    assert min(fwd[1], rev[1]) >= 45.0, shares
 
 
 def test_a_spinning_heads_recording_grouped_each_half_turn(tmp_path):

@@ -217,14 +217,38 @@ void ScanSplitter::markVeils(int n, SplitResult& out) {
     }
     int j = i;
     while (veil(j + 1)) ++j;
-    if (j - i + 1 <= params_.veil_max_beams) {
-      for (int k = i; k <= j; ++k) {
+    // Range noise breaks a surface seen near the veil angle into short runs:
+    // one step falls short of the angle by chance, and both beams beside it
+    // fail the test. The next run is part of this one when no more beams
+    // than a veil may hold lie between them, the ranges go on the same way
+    // step by step (a repeated range, a reading that did not change, is no
+    // such step), and the range from this run's end to that run's start
+    // falls short of the angle's by no more than a difference of two ranges'
+    // noise (sqrt(2) d_T: the split's threshold is the significance level's
+    // sigmas of range noise). Only the run's length is judged so; the beams
+    // marked are those that pass the test themselves.
+    const bool outwards = r_[j + 1] > r_[j];
+    const auto onward = [&](int k) {
+      return valid_[k] && valid_[k + 1] && (outwards ? r_[k + 1] > r_[k] : r_[k + 1] < r_[k]);
+    };
+    int last = j;  // the run's last veil beam, with the runs it took in
+    for (int m = j + 1; m + 1 < n && m - last <= params_.veil_max_beams + 1 && onward(m - 1); ++m) {
+      if (!veil(m)) continue;
+      const double fell = outwards ? r_[m] - r_[last] : r_[last] - r_[m];
+      if (fell < c * r_[m] * (m - last) - std::sqrt(2.0) * params_.threshold(r_[m])) break;
+      last = m;
+    }
+    if (last - i + 1 <= params_.veil_max_beams) {
+      marked_.clear();
+      for (int k = i; k <= last; ++k)
+        if (veil(k)) marked_.push_back(k);
+      for (int k : marked_) {
         out.edges.push_back(EdgePoint{k, EdgeKind::Veil, nan, Eigen::Vector2d(x_[k], y_[k])});
         ++out.veil_points;
+        valid_[k] = 0;  // after the run's test: it looks at its neighbours
       }
-      for (int k = i; k <= j; ++k) valid_[k] = 0;  // after the run's test: it looks at its neighbours
     }
-    i = j + 1;
+    i = last + 1;
   }
 }
 

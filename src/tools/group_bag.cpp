@@ -92,11 +92,14 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
   // The largest wall: a Hough vote over vertical planes x cos(a) + y sin(a) = d
   // (1 degree, 2 cm) by the points above the floor that lie in vertical planes
   // (normals within 10 degrees of level). A dense table top crosses every
-  // vertical slab and must not vote; a point of a plane that is not vertical
-  // is not a wall's either.
+  // vertical slab and must not vote.
   std::vector<char> vertical(sw.planes.empty() ? 0 : 1 + std::max_element(sw.planes.begin(), sw.planes.end(),
       [](const core::Plane& a, const core::Plane& b) { return a.id < b.id; })->id, 0);
-  for (const auto& pl : sw.planes) vertical[pl.id] = std::abs(pl.fit.normal.z()) < std::sin(10.0 * M_PI / 180.0);
+  std::vector<char> level(vertical.size(), 0);
+  for (const auto& pl : sw.planes) {
+    vertical[pl.id] = std::abs(pl.fit.normal.z()) < std::sin(10.0 * M_PI / 180.0);
+    level[pl.id] = std::abs(pl.fit.normal.z()) > std::cos(10.0 * M_PI / 180.0);
+  }
   const auto inVertical = [&](int l) { return l >= 0 && l < static_cast<int>(vertical.size()) && vertical[l]; };
   std::map<std::pair<int, int>, int> votes;
   for (std::size_t li = 0; li < sw.lines.size(); ++li)
@@ -121,9 +124,12 @@ void judgeRoom(const core::SweepResult& sw, const std::vector<std::vector<int>>&
     return;
   }
   const double t = best.first * M_PI / 180.0, d = (best.second + 0.5) * 0.02;
-  // The wall's points: above the floor, within 5 cm of it, in no plane or a vertical one.
+  // The wall's points: above the floor, within 5 cm of it, in no level plane
+  // (a table top or a floor crossing its slab). A point of the wall that a
+  // tilted plane took is the wall's all the same: left out, it would make
+  // the wall look whole the more of it went astray.
   const Share wall = share(sw, label, [&](const Eigen::Vector3f& p, int l) {
-    if (l >= 0 && !inVertical(l)) return false;
+    if (l >= 0 && l < static_cast<int>(level.size()) && level[l]) return false;
     return p.z() > floor_z + 0.1 && std::abs(p.x() * std::cos(t) + p.y() * std::sin(t) - d) < 0.05;
   });
   std::printf("  room: floor at z=%.3f m: %d points, %.1f %% in plane %d; largest wall (normal %.0f deg, %.2f m): %d points, "

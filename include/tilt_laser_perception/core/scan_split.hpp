@@ -102,9 +102,12 @@ struct SplitParams {
   /// width. Such beams are marked EdgeKind::Veil and split off. 0: off.
   double veil_angle_deg = 15.0;
   /// A run of such beams longer than this is a surface seen at grazing
-  /// incidence, not a veil (a footprint spans a few beams: 4 for the
-  /// UTM-30LX's 1 degree at 0.25 degree steps).
-  int veil_max_beams = 8;
+  /// incidence, not a veil: a blend lies where the footprint straddles the
+  /// edge, over the steps the footprint spans and one more (5 for the
+  /// UTM-30LX's 1 degree at 0.25 degree steps). A run that range noise broke
+  /// (a step short of the angle by no more than the noise of two ranges) is
+  /// judged whole.
+  int veil_max_beams = 5;
 
   /// Empty when valid, else a message naming the bad parameter.
   std::string validate() const;
@@ -204,6 +207,7 @@ class ScanSplitter {
   void markVeils(int n, SplitResult& out);
   void splitRun(const Run& run, SplitResult& out);
   std::vector<int> veil_before_;  // splitRun's: per kept segment, where a veil before it began (-1: none)
+  std::vector<int> marked_;       // markVeils': the veil points of a run
   void fitSegment(int first, int last, Segment& seg) const;
   Moments2 rangeMoments(int first, int last) const;
   bool withinTolerance(int first, int last) const;
