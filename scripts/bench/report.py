@@ -355,7 +355,8 @@ class Report:
                      f"The recordings and clouds of `{os.path.relpath(data, ROOT)}` (its README says what each is). "
                      "`--room`: the share of the floor (the lowest level holding 2 % of the points, or the level "
                      "`--floor-z` names) and of the largest wall (the vertical surface most points of vertical planes "
-                     "lie on) that their largest plane holds. `--surface`: the points in the box within 3 rms of "
+                     "lie on; its points: all within 5 cm of it above the floor but a level plane's) that their "
+                     "largest plane holds. `--surface`: the points in the box within 3 rms of "
                      "their plane, the share the largest plane holds, the share in any plane, and how many planes "
                      "hold 80 %.\n\n" + table(["data", "result"], rows))
         room = [r for r in rows if r[0].startswith("room_240 sweep 0")]
