@@ -239,14 +239,12 @@ void ScanSplitter::markVeils(int n, SplitResult& out) {
       last = m;
     }
     if (last - i + 1 <= params_.veil_max_beams) {
-      marked_.clear();
+      const std::size_t from = out.edges.size();
       for (int k = i; k <= last; ++k)
-        if (veil(k)) marked_.push_back(k);
-      for (int k : marked_) {
-        out.edges.push_back(EdgePoint{k, EdgeKind::Veil, nan, Eigen::Vector2d(x_[k], y_[k])});
-        ++out.veil_points;
-        valid_[k] = 0;  // after the run's test: it looks at its neighbours
-      }
+        if (veil(k)) out.edges.push_back(EdgePoint{k, EdgeKind::Veil, nan, Eigen::Vector2d(x_[k], y_[k])});
+      // After the run's test, which looks at each beam's neighbours.
+      for (std::size_t e = from; e < out.edges.size(); ++e) valid_[out.edges[e].index] = 0;
+      out.veil_points += static_cast<int>(out.edges.size() - from);
     }
     i = last + 1;
   }

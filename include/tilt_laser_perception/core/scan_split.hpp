@@ -207,7 +207,6 @@ class ScanSplitter {
   void markVeils(int n, SplitResult& out);
   void splitRun(const Run& run, SplitResult& out);
   std::vector<int> veil_before_;  // splitRun's: per kept segment, where a veil before it began (-1: none)
-  std::vector<int> marked_;       // markVeils': the veil points of a run
   void fitSegment(int first, int last, Segment& seg) const;
   Moments2 rangeMoments(int first, int last) const;
   bool withinTolerance(int first, int last) const;
