@@ -218,6 +218,23 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     at = (o + t * r).head<2>();
     return true;
   };
+  // Whether a piece's end at beam b of line l is the surface's own edge: the
+  // beams beyond it, outwards (step -1 or +1), passed the plane (as above).
+  // The split's veil beams there are looked past: mixed pixels (a footprint
+  // across the edge reports a range between the surface and what lies
+  // behind it) tell nothing of where the surface ends.
+  const auto ownEdge = [&](const PlaneFit& f, int l, int b, int step, Eigen::Vector2d& at) {
+    at.setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (l < 0 || l >= static_cast<int>(sweep.lines.size())) return false;
+    const auto& edges = sweep.lines[l].edges;
+    const auto veil = [&](int c) {
+      return std::any_of(edges.begin(), edges.end(),
+                         [c](const std::pair<int, EdgeKind>& e) { return e.first == c && e.second == EdgeKind::Veil; });
+    };
+    int c = b + step;
+    while (veil(c)) c += step;
+    return passed(f, l, c, at);
+  };
   const auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& w) { return u.x() * w.y() - u.y() * w.x(); };
   std::vector<Eigen::Vector2d> outline, free_at;
   std::vector<double> beam_step;
@@ -239,7 +256,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     const auto end = [&](const Piece& pc, bool entry) {
       outline.push_back(entry ? pc.from : pc.to);
       beam_step.push_back((pc.to - pc.from).norm() / std::max(1, pc.beam_last - pc.beam_first));
-      own_edge.push_back(passed(pl.fit, pc.line, entry ? pc.beam_first - 1 : pc.beam_last + 1, at));
+      own_edge.push_back(ownEdge(pl.fit, pc.line, entry ? pc.beam_first : pc.beam_last, entry ? -1 : 1, at));
       if (at.allFinite()) free_at.push_back(at);
     };
     for (std::size_t k = 0; k < pieces.size(); ++k)
