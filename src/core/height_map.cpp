@@ -222,17 +222,33 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   // beams beyond it, outwards (step -1 or +1), passed the plane (as above).
   // The split's veil beams there are looked past: mixed pixels (a footprint
   // across the edge reports a range between the surface and what lies
-  // behind it) tell nothing of where the surface ends.
+  // behind it) tell nothing of where the surface ends. So are beams of no
+  // segment within the distance threshold of the plane: the surface itself,
+  // a run too short for a segment of its own.
+  const auto inSegment = [&](int l, int c) {
+    auto it = std::lower_bound(sweep.segments.begin(), sweep.segments.end(), l,
+                               [](const Segment3& t, int line) { return t.line < line; });
+    for (; it != sweep.segments.end() && it->line == l; ++it)
+      if (it->first <= c && c <= it->last) return true;
+    return false;
+  };
   const auto ownEdge = [&](const PlaneFit& f, int l, int b, int step, Eigen::Vector2d& at) {
     at.setConstant(std::numeric_limits<double>::quiet_NaN());
     if (l < 0 || l >= static_cast<int>(sweep.lines.size())) return false;
-    const auto& edges = sweep.lines[l].edges;
+    const SweepLine& line = sweep.lines[l];
+    const auto& edges = line.edges;
     const auto veil = [&](int c) {
       return std::any_of(edges.begin(), edges.end(),
                          [c](const std::pair<int, EdgeKind>& e) { return e.first == c && e.second == EdgeKind::Veil; });
     };
+    const auto onPlane = [&](int c) {
+      if (c < 0 || c >= static_cast<int>(line.points.size()) || !line.points[c].allFinite()) return false;
+      const Eigen::Vector3d q = line.points[c].cast<double>();
+      return std::abs(f.normal.dot(q) - f.offset) <= grouping_defaults.threshold((q - line.origin.cast<double>()).norm()) &&
+             !inSegment(l, c);
+    };
     int c = b + step;
-    while (veil(c)) c += step;
+    while (veil(c) || onPlane(c)) c += step;
     return passed(f, l, c, at);
   };
   const auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& w) { return u.x() * w.y() - u.y() * w.x(); };
