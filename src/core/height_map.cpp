@@ -232,8 +232,10 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       if (it->first <= c && c <= it->last) return true;
     return false;
   };
-  const auto ownEdge = [&](const PlaneFit& f, int l, int b, int step, Eigen::Vector2d& at) {
+  // `beams`: how many beams out that one lies (1: the beam beside the end).
+  const auto ownEdge = [&](const PlaneFit& f, int l, int b, int step, Eigen::Vector2d& at, int& beams) {
     at.setConstant(std::numeric_limits<double>::quiet_NaN());
+    beams = 1;
     if (l < 0 || l >= static_cast<int>(sweep.lines.size())) return false;
     const SweepLine& line = sweep.lines[l];
     const auto& edges = line.edges;
@@ -249,11 +251,12 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     };
     int c = b + step;
     while (veil(c) || onPlane(c)) c += step;
+    beams = std::abs(c - b);
     return passed(f, l, c, at);
   };
   const auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& w) { return u.x() * w.y() - u.y() * w.x(); };
   std::vector<Eigen::Vector2d> outline, free_at;
-  std::vector<double> beam_step;
+  std::vector<double> end_slack;
   std::vector<char> own_edge;
   // Corners its lines cut: where the plane's own edges turn between two of
   // its lines, or beyond its outermost line, no line saw the corner; the
@@ -267,12 +270,15 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     outline.clear();
     own_edge.clear();
     free_at.clear();
-    beam_step.clear();
+    end_slack.clear();
     Eigen::Vector2d at;
     const auto end = [&](const Piece& pc, bool entry) {
       outline.push_back(entry ? pc.from : pc.to);
-      beam_step.push_back((pc.to - pc.from).norm() / std::max(1, pc.beam_last - pc.beam_first));
-      own_edge.push_back(ownEdge(pl.fit, pc.line, entry ? pc.beam_first : pc.beam_last, entry ? -1 : 1, at));
+      int beams = 1;
+      own_edge.push_back(ownEdge(pl.fit, pc.line, entry ? pc.beam_first : pc.beam_last, entry ? -1 : 1, at, beams));
+      // How far short of the edge the end may lie: up to the first beam
+      // that passed it.
+      end_slack.push_back(beams * (pc.to - pc.from).norm() / std::max(1, pc.beam_last - pc.beam_first));
       if (at.allFinite()) free_at.push_back(at);
     };
     for (std::size_t k = 0; k < pieces.size(); ++k)
@@ -292,16 +298,16 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     double area2 = 0.0;  // twice the outline's signed area: its orientation
     for (std::size_t i = 0; i < m; ++i) area2 += cross(outline[i], outline[(i + 1) % m]);
     // Whether outline[k - 1], outline[k], outline[k + 1] are three ends of
-    // one straight edge (the middle one within its beam step of the chord
-    // of the others): a direction two ends alone give may be a chord across
-    // a corner the lines cut.
+    // one straight edge (the middle one within how far short of the edge it
+    // may lie of the chord of the others): a direction two ends alone give
+    // may be a chord across a corner the lines cut.
     const auto straight = [&](std::size_t k) {
       const std::size_t k0 = (k + m - 1) % m, k2 = (k + 1) % m;
       if ((k0 < lines) != (k < lines) || (k2 < lines) != (k < lines) || !own_edge[k0] || !own_edge[k] || !own_edge[k2])
         return false;
       const Eigen::Vector2d chord = outline[k2] - outline[k0];
       const double len = chord.norm();
-      return len > 0.0 && std::abs(cross(chord, outline[k] - outline[k0])) / len <= beam_step[k];
+      return len > 0.0 && std::abs(cross(chord, outline[k] - outline[k0])) / len <= end_slack[k];
     };
     for (std::size_t i = 0; i < m; ++i) {
       // The corner between outline[i] and outline[i + 1], where the edges
@@ -311,15 +317,21 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       const auto edge = [&](std::size_t u, std::size_t w) {  // two ends of one side, the surface's own edge
         return (u < lines) == (w < lines) && own_edge[u] && own_edge[w];
       };
-      if (!edge(i0, i) || !edge(i2, i3) || !(straight(i0) || straight(i3))) continue;
+      // Between two lines the chord's ends and one straight edge place the
+      // corner; beyond the outermost line nothing was seen around it, so
+      // both edges must be straight (a line's piece that ran on over
+      // something else beside the surface makes an edge that is none).
+      const bool beyond = (i < lines) != (i2 < lines);
+      if (!edge(i0, i) || !edge(i2, i3) || !(beyond ? straight(i0) && straight(i3) : straight(i0) || straight(i3)))
+        continue;
       const Eigen::Vector2d &a = outline[i], &b = outline[i2];
       const Eigen::Vector2d d1 = a - outline[i0], d2 = outline[i3] - b;
-      // A line's end lies up to a beam short of the edge, so an edge's
-      // direction is known to within the two ends' beam steps over its
-      // length: the edges must turn by more than that (not a straight edge
-      // whose ends jitter).
+      // A line's end lies up to its slack short of the edge, so an edge's
+      // direction is known to within the two ends' slacks over its length:
+      // the edges must turn by more than that (not a straight edge whose
+      // ends jitter).
       const double det = cross(d1, d2);  // a + s d1 = b - u d2
-      const double uncertain = (beam_step[i0] + beam_step[i]) / d1.norm() + (beam_step[i2] + beam_step[i3]) / d2.norm();
+      const double uncertain = (end_slack[i0] + end_slack[i]) / d1.norm() + (end_slack[i2] + end_slack[i3]) / d2.norm();
       if (!(std::atan2(std::abs(det), d1.dot(d2)) > uncertain)) continue;
       const double s = cross(b - a, d2) / det, u = cross(d1, b - a) / det;
       if (!(s > 0.0 && s <= 1.0 && u > 0.0 && u <= 1.0)) continue;
