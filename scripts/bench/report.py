@@ -78,7 +78,6 @@ class Report:
                              f"{f['step_precision_pct']:.1f} / {f['step_recall_pct']:.1f}",
                              f"{f['latency_ms']:.2f}", f"{r['correct']:.0f}, noise {r['noise']:.2f}",
                              f"{c['walkable_cm']:.2f}" if c else "-"])
-        shutil.rmtree(tmp, ignore_errors=True)
         s = ",".join(map(str, seeds))
         self.section(
             "Planes and height map on the simulator's scenes",
@@ -171,7 +170,7 @@ class Report:
 
     def calibration_file(self):
         # The realistic rig calibrated as a user would: calibrate on 10 s of it
-        # standing before the stairs (made once).
+        # standing before the stairs (made once; cleanup() removes it).
         if self._calibration is None:
             tmp = tempfile.mkdtemp()
             cal_bag, cal = os.path.join(tmp, "standing.bag"), os.path.join(tmp, "head_calibration.yaml")
@@ -180,6 +179,11 @@ class Report:
             run([self.tool("calibrate"), cal_bag, "--out", cal])
             self._calibration = cal
         return self._calibration
+
+    def cleanup(self):
+        if self._calibration is not None:
+            shutil.rmtree(os.path.dirname(self._calibration), ignore_errors=True)
+            self._calibration = None
 
     def walking(self):
         seeds = [1] if self.quick else [1, 2, 3]
@@ -459,11 +463,13 @@ def main():
     r = Report(bin_dir, os.path.abspath(a.ws), os.path.abspath(a.shared), a.quick)
     if a.only:
         getattr(r, a.only)()
+        r.cleanup()
         for title, command, text in r.sections:
             print(f"## {title}\n\n`{command}`\n\n{text}\n")
         return
     for step in STEPS:
         getattr(r, step)()
+    r.cleanup()
     r.write(a.out, None if a.no_readme else os.path.join(ROOT, "README.md"), time.time() - t0)
     print(f"wrote {a.out} in {(time.time() - t0) / 60:.1f} minutes")
 
