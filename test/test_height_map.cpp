@@ -473,6 +473,37 @@ TEST(HeightMap, WhatLiesBeneathWhereAnOverhangMayGoOnIsUnknown) {
   for (double x = 1.505; x < 1.75; x += 0.01) EXPECT_NEAR(g.heights[at(x, 0.005)], 0.0, 1e-4) << x;
 }
 
+namespace {
+/// The turned table top's cells (centre cx, cy, turned by yaw, 0.76 x 1.2
+/// m, 0.75 m up): those more than `in` inside its edges (`under`, and of
+/// them `wrong`, holding no height within 1 cm of its) and those more than
+/// `out` outside them (`beyond`, and of them `invented`, `claimed(cell)`).
+struct TopCells {
+  int under = 0, wrong = 0, beyond = 0, invented = 0;
+};
+TopCells turnedTopCells(const HeightMapGrid& g, const HeightMapParams& p, double cx, double cy, double yaw, double in,
+                        double out, const std::function<bool(std::size_t)>& claimed) {
+  TopCells t;
+  for (int iy = 0; iy < p.height; ++iy)
+    for (int ix = 0; ix < p.width; ++ix) {
+      const double x = p.origin_x + (ix + 0.5) * 0.01, y = p.origin_y + (iy + 0.5) * 0.01;
+      const double u = std::cos(yaw) * (x - cx) + std::sin(yaw) * (y - cy);
+      const double v = -std::sin(yaw) * (x - cx) + std::cos(yaw) * (y - cy);
+      const double inside = std::min(0.38 - std::abs(u), 0.6 - std::abs(v));  // to the nearest edge
+      const std::size_t c = g.index(ix, iy);
+      const float z = g.heights[c];
+      if (inside > in) {
+        ++t.under;
+        t.wrong += std::isfinite(z) && std::abs(z - 0.75f) > 0.01f;
+      } else if (inside < -out) {
+        ++t.beyond;
+        t.invented += claimed(c);
+      }
+    }
+  return t;
+}
+}  // namespace
+
 TEST(HeightMap, ACornerItsLinesCutIsTheCornerOfItsEdges) {
   // The table top turned by 40 degrees, its lines 6-10 cm apart: they cross
   // its corners at an angle, and the floor seen under it filled what the
@@ -482,26 +513,12 @@ TEST(HeightMap, ACornerItsLinesCutIsTheCornerOfItsEdges) {
   const HeightMapParams p = mapParams(0.5, -1.5, 400, 300);
   HeightMapGrid g;
   buildHeightMap(overhangSweep(0.75, cx, cy, 0.76, 40.0, false, 0.025), p, g);
-  int under = 0, wrong = 0, beyond = 0, invented = 0;
-  for (int iy = 0; iy < p.height; ++iy)
-    for (int ix = 0; ix < p.width; ++ix) {
-      const double x = p.origin_x + (ix + 0.5) * 0.01, y = p.origin_y + (iy + 0.5) * 0.01;
-      const double u = std::cos(yaw) * (x - cx) + std::sin(yaw) * (y - cy);
-      const double v = -std::sin(yaw) * (x - cx) + std::cos(yaw) * (y - cy);
-      const double inside = std::min(0.38 - std::abs(u), 0.6 - std::abs(v));  // to the nearest edge
-      const float z = g.heights[g.index(ix, iy)];
-      // (A line's end lies up to a beam short of the edge: 0.01 rad, 2.5 cm here.)
-      if (inside > 0.025) {
-        ++under;
-        wrong += std::isfinite(z) && std::abs(z - 0.75f) > 0.01f;
-      } else if (inside < -0.015) {
-        ++beyond;
-        invented += std::isfinite(z) && z > 0.5f;
-      }
-    }
-  EXPECT_EQ(wrong, 0) << "of " << under << " cells under the top";
-  EXPECT_EQ(invented, 0) << "of " << beyond << " cells beside it";
-  EXPECT_GT(under, 3000);
+  // (A line's end lies up to a beam short of the edge: 0.01 rad, 2.5 cm here.)
+  const TopCells t = turnedTopCells(g, p, cx, cy, yaw, 0.025, 0.015,
+                                    [&](std::size_t c) { return std::isfinite(g.heights[c]) && g.heights[c] > 0.5f; });
+  EXPECT_EQ(t.wrong, 0) << "of " << t.under << " cells under the top";
+  EXPECT_EQ(t.invented, 0) << "of " << t.beyond << " cells beside it";
+  EXPECT_GT(t.under, 3000);
 }
 
 TEST(HeightMap, ACornerItsLinesCutIsFoundPastMixedPixelsAtItsEdges) {
@@ -516,29 +533,13 @@ TEST(HeightMap, ACornerItsLinesCutIsFoundPastMixedPixelsAtItsEdges) {
   const HeightMapParams p = mapParams(0.5, -1.5, 400, 300);
   HeightMapGrid g;
   buildHeightMap(overhangSweep(0.75, cx, cy, 0.76, 40.0, false, 0.025, true), p, g);
-  int under = 0, wrong = 0, beyond = 0, invented = 0;
-  for (int iy = 0; iy < p.height; ++iy)
-    for (int ix = 0; ix < p.width; ++ix) {
-      const double x = p.origin_x + (ix + 0.5) * 0.01, y = p.origin_y + (iy + 0.5) * 0.01;
-      const double u = std::cos(yaw) * (x - cx) + std::sin(yaw) * (y - cy);
-      const double v = -std::sin(yaw) * (x - cx) + std::cos(yaw) * (y - cy);
-      const double inside = std::min(0.38 - std::abs(u), 0.6 - std::abs(v));
-      const float z = g.heights[g.index(ix, iy)];
-      // (A line's end lies up to two beams short of the edge, 5 cm; a mixed
-      // pixel's end up to 3 cm beyond it, marked as what it is.)
-      if (inside > 0.05) {
-        ++under;
-        wrong += std::isfinite(z) && std::abs(z - 0.75f) > 0.01f;
-      } else if (inside < -0.03) {
-        ++beyond;
-        // (the top's plane carried past its edge; the mixed pixels' own
-        // points mark obstacles where they lie, as any point does)
-        invented += g.plane_ids[g.index(ix, iy)] == 1;
-      }
-    }
-  EXPECT_EQ(wrong, 0) << "of " << under << " cells under the top";
-  EXPECT_EQ(invented, 0) << "of " << beyond << " cells beside it";
-  EXPECT_GT(under, 3000);
+  // (A line's end lies up to two beams short of the edge, 5 cm; a mixed
+  // pixel's end up to 3 cm beyond it, marked as what it is: only the top's
+  // plane carried past its edge counts.)
+  const TopCells t = turnedTopCells(g, p, cx, cy, yaw, 0.05, 0.03, [&](std::size_t c) { return g.plane_ids[c] == 1; });
+  EXPECT_EQ(t.wrong, 0) << "of " << t.under << " cells under the top";
+  EXPECT_EQ(t.invented, 0) << "of " << t.beyond << " cells beside it";
+  EXPECT_GT(t.under, 3000);
 }
 
 TEST(HeightMap, AStripStopsWhereTheNextLineSawSomethingElse) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 
 #include "tilt_laser_perception/sim/evaluation.hpp"
@@ -992,6 +993,32 @@ TEST(SceneEval, ABoxsTopAndATreadAtItsHeightStayTwoPlanes) {
   }
 }
 
+namespace {
+/// Every cell of each sweep's map (x, y [m], height) of `scene`, six sweeps
+/// each of seeds 1-3, with a real rig's errors calibrated exactly (the robot
+/// stands at the origin).
+void forEachRealisticMapCell(const std::string& scene, const std::function<void(double, double, float)>& visit) {
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    sim::SceneEvalOptions o;
+    o.scene = scene;
+    o.sweeps = 6;
+    o.seed = seed;
+    sim::setRealistic(o.rig, o.noise);
+    o.calibration = o.rig.calibration();
+    o.on_sweep = [&](const core::SweepResult& sw) {
+      core::HeightMapGrid g;
+      core::buildHeightMap(sw, o.heightmap, g);
+      const core::HeightMapParams& p = o.heightmap;
+      for (int iy = 0; iy < p.height; ++iy)
+        for (int ix = 0; ix < p.width; ++ix)
+          visit(p.origin_x + (ix + 0.5) * p.resolution, p.origin_y + (iy + 0.5) * p.resolution,
+                g.heights[g.index(ix, iy)]);
+    };
+    ASSERT_EQ(sim::evaluateScene(o).size(), 6u);
+  }
+}
+}  // namespace
+
 TEST(SceneEval, ABlocksTopIsNotCarriedPastItsLastLineOntoTheFloor) {
   // The cinder blocks with a real rig's errors, calibrated exactly: the
   // plane of block3L's level top (x 1.6-2.0 m, y 0-0.39 m, 0.50 m) holds,
@@ -1005,28 +1032,11 @@ TEST(SceneEval, ABlocksTopIsNotCarriedPastItsLastLineOntoTheFloor) {
   // lines and an end past the veils and the plane's leftover beams was an
   // own edge); both must be straight there now.
   int behind = 0, top = 0;
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    sim::SceneEvalOptions o;
-    o.scene = "cinder_blocks";
-    o.sweeps = 6;
-    o.seed = seed;
-    sim::setRealistic(o.rig, o.noise);
-    o.calibration = o.rig.calibration();
-    o.on_sweep = [&](const core::SweepResult& sw) {
-      core::HeightMapGrid g;
-      core::buildHeightMap(sw, o.heightmap, g);  // (the robot stands at the origin)
-      const core::HeightMapParams& p = o.heightmap;
-      for (int iy = 0; iy < p.height; ++iy)
-        for (int ix = 0; ix < p.width; ++ix) {
-          const double x = p.origin_x + (ix + 0.5) * p.resolution, y = p.origin_y + (iy + 0.5) * p.resolution;
-          const float z = g.heights[g.index(ix, iy)];
-          if (y < 0.02 || y > 0.37 || !(z > 0.25f)) continue;
-          behind += x > 2.05 && x < 2.2;  // (5 cm past its edge: more than an edge placed a beam or two off)
-          top += x > 1.7 && x < 1.95;
-        }
-    };
-    ASSERT_EQ(sim::evaluateScene(o).size(), 6u);
-  }
+  forEachRealisticMapCell("cinder_blocks", [&](double x, double y, float z) {
+    if (y < 0.02 || y > 0.37 || !(z > 0.25f)) return;
+    behind += x > 2.05 && x < 2.2;  // (5 cm past its edge: more than an edge placed a beam or two off)
+    top += x > 1.7 && x < 1.95;
+  });
   EXPECT_EQ(behind, 0);
   EXPECT_GT(top, 10000);  // (the top itself is there: 25 x 35 cells a sweep)
 }
@@ -1046,30 +1056,14 @@ TEST(SceneEval, AnOpenSidedLandingsCornersAreTheLandingsNotTheFloorSeenUnderIt) 
   const double yaw = -40.0 * M_PI / 180.0;
   const Eigen::Vector2d start(1.2, 0.3), fwd(std::cos(yaw), std::sin(yaw)), left(-std::sin(yaw), std::cos(yaw));
   int floor_under = 0, landing = 0;
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    sim::SceneEvalOptions o;
-    o.scene = "open_stairs";
-    o.sweeps = 6;
-    o.seed = seed;
-    sim::setRealistic(o.rig, o.noise);
-    o.calibration = o.rig.calibration();
-    o.on_sweep = [&](const core::SweepResult& sw) {
-      core::HeightMapGrid g;
-      core::buildHeightMap(sw, o.heightmap, g);  // (the robot stands at the origin)
-      const core::HeightMapParams& p = o.heightmap;
-      for (int iy = 0; iy < p.height; ++iy)
-        for (int ix = 0; ix < p.width; ++ix) {
-          const Eigen::Vector2d q(p.origin_x + (ix + 0.5) * p.resolution, p.origin_y + (iy + 0.5) * p.resolution);
-          const double along = (q - start).dot(fwd), across = (q - start).dot(left);
-          // the landing: 1.12-1.92 m along the stairs, +-0.45 m across
-          if (std::min({along - 1.12, 1.92 - along, 0.45 - std::abs(across)}) < 0.05) continue;
-          const float z = g.heights[g.index(ix, iy)];
-          floor_under += z < 0.4f;
-          landing += std::abs(z - 0.8f) < 0.02f;
-        }
-    };
-    ASSERT_EQ(sim::evaluateScene(o).size(), 6u);
-  }
+  forEachRealisticMapCell("open_stairs", [&](double x, double y, float z) {
+    const Eigen::Vector2d q(x, y);
+    const double along = (q - start).dot(fwd), across = (q - start).dot(left);
+    // the landing: 1.12-1.92 m along the stairs, +-0.45 m across
+    if (std::min({along - 1.12, 1.92 - along, 0.45 - std::abs(across)}) < 0.05) return;
+    floor_under += z < 0.4f;
+    landing += std::abs(z - 0.8f) < 0.02f;
+  });
   EXPECT_LT(floor_under, 30) << "of " << landing << " cells of the landing";
   EXPECT_GT(landing, 10000);
 }
