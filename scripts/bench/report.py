@@ -77,7 +77,9 @@ class Report:
                              f"{f['edge_median_cm']:.1f} / {f['edge_p95_cm']:.1f}", f"{f['invented_pct']:.2f}",
                              f"{f['step_precision_pct']:.1f} / {f['step_recall_pct']:.1f}",
                              f"{f['latency_ms']:.2f}", f"{r['correct']:.0f}, noise {r['noise']:.2f}",
-                             f"{c['walkable_cm']:.2f}" if c else "-"])
+                             (f"{c['walkable_cm']:.2f}; " + ("-" if c['edge_median_cm'] != c['edge_median_cm'] else
+                                                             f"{c['edge_median_cm']:.1f} / {c['edge_p95_cm']:.1f}"))
+                             if c else "-"])
         s = ",".join(map(str, seeds))
         self.section(
             "Planes and height map on the simulator's scenes",
@@ -96,13 +98,13 @@ class Report:
             "says a 0.24 x 0.14 m foot of any yaw fits, the share where it truly does (a disc of its radius on one "
             "true plane within 15 degrees), and of those where it truly does and the map knows every cell of the disc, the share found; latency: from the sweep's last line to its planes and map (median sweep); lines reversed: "
             "the same sweeps with each sweep's lines grouped last first (`--reverse`: the result should not depend "
-            "on the order); calibrated: the realistic rig's walkable RMSE with the head calibrated as a user would "
+            "on the order); calibrated: the realistic rig's walkable RMSE and step edges with the head calibrated as a user would "
             "(`make_scene_bag --scene stairs --realistic --duration 10 --seed 7`, `calibrate` on it, `evaluate "
             "--calibration` its estimate).\n\n" +
             table(["scene", "rig", "correct faces", "noise", "missed", "normal error [deg]", "height map RMSE [cm]",
                    "walkable RMSE [cm]", "step edges: median / p95 [cm]", "invented [%]",
                    "steppable: precision / recall [%]", "latency [ms]",
-                   "lines reversed: correct", "calibrated: walkable RMSE [cm]"], rows))
+                   "lines reversed: correct", "calibrated: walkable RMSE; step edges median / p95 [cm]"], rows))
         st, sr = self.scene_figures[("stairs", False)], self.scene_figures[("stairs", True)]
         self.summary["stairs"] = (f"{100 * st['correct'] / st['true_faces']:.0f} % of the faces, "
                                   f"height map {st['rmse_cm']:.1f} cm RMSE "
