@@ -142,6 +142,41 @@ TEST(FusedHeightMap, TheHeadPosesShareOfASigmaDoesNotShrinkWithSweeps) {
   EXPECT_NE(f.validate().find("sigma_pose"), std::string::npos);
 }
 
+TEST(FusedHeightMap, TheSweepsUncertaintyLayerIsTheNoiseModelsSigmaOnKnownCellsAndNaNElsewhere) {
+  // Every known cell: sqrt(variance + bias^2) of SweepNoise at its height;
+  // every unknown cell NaN, also when the buffer held a larger map's layer.
+  FusedMapParams f = fusedParams();
+  f.sigma_pose = 0.5 * M_PI / 180.0;
+  const Eigen::Vector3d eye(0.2, -0.1, 1.4);
+  SweepResult wide, narrow;
+  wide.planes = {rectangle(0, 0.5, -1.5, 3.5, 1.5, 0.0)};
+  narrow.planes = {rectangle(0, 1.0, -0.3, 1.6, 0.2, 0.1), rectangle(1, 2.0, 0.4, 2.3, 0.6, 0.25)};
+  HeightMapGrid g;
+  std::vector<float> sigmas;
+  buildHeightMap(wide, cells(), g);
+  sweepUncertainty(g, eye, f, sigmas);
+  buildHeightMap(narrow, cells(), g);
+  sweepUncertainty(g, eye, f, sigmas);
+  ASSERT_EQ(sigmas.size(), g.heights.size());
+  const SweepNoise noise(f, g.params, eye);
+  int known = 0, unknown = 0;
+  for (int iy = 0; iy < g.params.height; ++iy)
+    for (int ix = 0; ix < g.params.width; ++ix) {
+      const std::size_t c = g.index(ix, iy);
+      if (std::isnan(g.heights[c])) {
+        ++unknown;
+        EXPECT_TRUE(std::isnan(sigmas[c])) << ix << "," << iy;
+        continue;
+      }
+      ++known;
+      const float b = noise.bias(ix, iy);
+      EXPECT_NEAR(sigmas[c], std::sqrt(noise.variance(ix, iy, g.heights[c]) + b * b), 1e-6) << ix << "," << iy;
+    }
+  // The two rectangles: 30 x 25 and 15 x 10 cells of 2 cm (within a cell at their sides).
+  EXPECT_NEAR(known, 30 * 25 + 15 * 10, 60);
+  EXPECT_GT(unknown, 0);
+}
+
 TEST(FusedHeightMap, TheNewestSweepWinsWhereTheyDisagree) {
   FusedHeightMap m(cells(), fusedParams());
   m.recentre(0.0, 0.0);

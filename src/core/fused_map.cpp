@@ -148,23 +148,39 @@ void sweepUncertainty(const HeightMapGrid& grid, const Eigen::Vector3d& sensor, 
                       std::vector<float>& sigmas) {
   // SweepNoise's variance plus its bias squared, in one sqrt a known cell:
   // s0 + (k2 + pose^2) (dx^2 + dy^2) + k2 dz^2. Run on every sweep the
-  // grouper publishes (bench_sweep's sigma_ms).
+  // grouper publishes (bench_sweep's sigma_ms). Every cell of the map's box
+  // is computed without a branch (an unknown cell's NaN height gives NaN),
+  // a row at a time in Eigen's vector arithmetic; only the cells beyond the
+  // box are filled with NaN.
   const HeightMapParams& g = grid.params;
-  sigmas.assign(grid.heights.size(), kNaN);
+  const std::size_t n = grid.heights.size();
+  sigmas.resize(n);
+  const int x0 = std::max(0, grid.box_x0), x1 = std::min(grid.box_x1, g.width - 1);
+  const int y0 = std::max(0, grid.box_y0), y1 = std::min(grid.box_y1, g.height - 1);
+  if (x1 < x0 || y1 < y0) {
+    std::fill(sigmas.begin(), sigmas.end(), kNaN);
+    return;
+  }
   const float s0 = static_cast<float>(p.sigma_min * p.sigma_min), k2 = static_cast<float>(p.sigma_range * p.sigma_range);
   const float kh = k2 + static_cast<float>(p.sigma_pose * p.sigma_pose), res = static_cast<float>(g.resolution);
   const float sx = static_cast<float>(sensor.x() - g.origin_x), sy = static_cast<float>(sensor.y() - g.origin_y),
               sz = static_cast<float>(sensor.z());
-  for (int iy = grid.box_y0; iy <= grid.box_y1; ++iy) {
+  const int bw = x1 - x0 + 1;
+  Eigen::ArrayXf dx2(bw);  // dx^2 of the box's columns
+  for (int k = 0; k < bw; ++k) {
+    const float dx = (x0 + k + 0.5f) * res - sx;
+    dx2[k] = dx * dx;
+  }
+  std::fill_n(sigmas.begin(), grid.index(x0, y0), kNaN);
+  for (int iy = y0; iy <= y1; ++iy) {
     const float dy = (iy + 0.5f) * res - sy;
-    const std::size_t c0 = grid.index(0, iy);
-    const float* __restrict h = grid.heights.data() + c0;
-    float* __restrict out = sigmas.data() + c0;
-    for (int ix = grid.box_x0; ix <= grid.box_x1; ++ix) {
-      if (std::isnan(h[ix])) continue;
-      const float dx = (ix + 0.5f) * res - sx, dz = h[ix] - sz;
-      out[ix] = std::sqrt(s0 + kh * (dx * dx + dy * dy) + k2 * dz * dz);
-    }
+    const std::size_t c0 = grid.index(x0, iy);
+    const Eigen::Map<const Eigen::ArrayXf> h(grid.heights.data() + c0, bw);
+    Eigen::Map<Eigen::ArrayXf> out(sigmas.data() + c0, bw);
+    out = ((s0 + kh * (dx2 + dy * dy)) + (k2 * (h - sz)) * (h - sz)).sqrt();
+    // Beyond the box: from this row's end to the next row's start (or the map's end).
+    const std::size_t end = iy < y1 ? grid.index(x0, iy + 1) : n;
+    std::fill(sigmas.begin() + c0 + bw, sigmas.begin() + end, kNaN);
   }
 }
 
