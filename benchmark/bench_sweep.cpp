@@ -171,6 +171,85 @@ BENCHMARK(Sweep1081x200)
     ->ReportAggregatesOnly(true)
     ->ComputeStatistics("min", [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); });
 
+// Each layer of the map alone on one finished sweep of the recording (its
+// last), many times over: HeightMap (buildHeightMap into a kept grid, as the
+// nodelet does), Uncertainty (sweepUncertainty) and Steppable
+// (steppableCells). Their fastest repetition is the steadiest figure on a
+// shared machine, for comparing two builds of a layer.
+const core::SweepResult& finishedSweep() {
+  static const core::SweepResult sweep = [] {
+    const Recording& rec = recording();
+    core::ScanSplitter splitter;
+    core::SplitResult split;
+    core::SweepAssembler a(core::SweepParams(), rec.chain);
+    core::SweepResult done;
+    std::size_t j = 0;
+    for (const core::LineInput& raw : rec.lines) {
+      const double last_beam = raw.stamp + 1080 * raw.time_increment;
+      while (j < rec.joints.size() && rec.joints[j].first <= last_beam + 0.005) {
+        a.addJoint(rec.joints[j].first, rec.joints[j].second);
+        ++j;
+      }
+      core::LineInput in = raw;
+      core::ScanView v;
+      v.ranges = in.ranges.data();
+      v.size = in.ranges.size();
+      v.angle_min = in.angle_min;
+      v.angle_increment = in.angle_increment;
+      v.angle_max = in.angle_min + (v.size - 1) * in.angle_increment;
+      v.range_min = in.range_min;
+      v.range_max = in.range_max;
+      splitter.split(v, split);
+      for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
+      a.addLine(std::move(in), last_beam);
+      core::SweepResult r;
+      if (a.poll(last_beam + 0.03, r)) done = std::move(r);
+    }
+    return done;
+  }();
+  return sweep;
+}
+
+void HeightMap(benchmark::State& state) {
+  const core::SweepResult& sweep = finishedSweep();
+  core::HeightMapGrid grid;
+  for (auto _ : state) core::buildHeightMap(sweep, core::HeightMapParams(), grid);
+}
+
+void Uncertainty(benchmark::State& state) {
+  const core::SweepResult& sweep = finishedSweep();
+  core::HeightMapGrid grid;
+  core::buildHeightMap(sweep, core::HeightMapParams(), grid);
+  std::vector<float> sigmas;
+  for (auto _ : state) core::sweepUncertainty(grid, core::meanOrigin(sweep), core::FusedMapParams(), sigmas);
+}
+
+void Steppable(benchmark::State& state) {
+  const core::SweepResult& sweep = finishedSweep();
+  core::HeightMapGrid grid;
+  core::buildHeightMap(sweep, core::HeightMapParams(), grid);
+  std::vector<std::uint8_t> steppable;
+  for (auto _ : state) core::steppableCells(grid, sweep.planes, core::FootParams(), steppable);
+  // The work: the map's box, its known cells, and those steppable.
+  long known = 0, yes = 0;
+  for (std::size_t c = 0; c < steppable.size(); ++c) {
+    known += steppable[c] != 255;
+    yes += steppable[c] == 1;
+  }
+  state.counters["box_cells"] = static_cast<double>(grid.box_x1 - grid.box_x0 + 1) * (grid.box_y1 - grid.box_y0 + 1);
+  state.counters["known_cells"] = static_cast<double>(known);
+  state.counters["steppable_cells"] = static_cast<double>(yes);
+}
+void layerRuns(benchmark::internal::Benchmark* b) {
+  b->Unit(benchmark::kMicrosecond)
+      ->Repetitions(5)
+      ->ReportAggregatesOnly(true)
+      ->ComputeStatistics("min", [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); });
+}
+BENCHMARK(HeightMap)->Apply(layerRuns);
+BENCHMARK(Uncertainty)->Apply(layerRuns);
+BENCHMARK(Steppable)->Apply(layerRuns);
+
 // One plane fit (core::fitPlane) against Eigen's direct 3 x 3 solver on the
 // same covariance (what fitPlane ran before its Newton step), over 1,000
 // patches of 30 points: 1 m x 0.5 m, 1 cm thick, up to 3 m from the origin.
