@@ -703,6 +703,78 @@ TEST(HeightMap, AFootRestsAcrossAShallowCreaseNotAcrossAStepOrASteepOne) {
   EXPECT_EQ(across(0.0, 0.0f), 1);  // two planes of one level (a floor cut in two)
 }
 
+TEST(HeightMap, SteppableIsTheDiscTestOnEveryCellOfRandomMaps) {
+  // Against the definition cell by cell: a known cell is steppable when
+  // every cell whose centre lies within the foot's radius is in the map's
+  // box and good (known, no obstacle, on a plane, no neighbour to its right
+  // or below of another plane a foot may not reach over). Two planes 0.5 m
+  // apart (never reached over), holes, obstacles, a box smaller than the map.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Plane low, high;
+  low.id = 0;
+  high.id = 1;
+  high.fit.offset = 0.5;
+  const FootParams foot;
+  const double rc = foot.radius() / 0.01;
+  int steppable = 0, not_steppable = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    HeightMapGrid g;
+    g.params.resolution = 0.01;
+    g.params.width = 90 + trial;
+    g.params.height = 70 + 2 * trial;
+    const int n = g.params.width * g.params.height;
+    g.heights.assign(n, std::numeric_limits<float>::quiet_NaN());
+    g.plane_ids.assign(n, -1);
+    g.classes.assign(n, CellClass::Unknown);
+    g.box_x0 = 2 + trial % 3;
+    g.box_y0 = 1;
+    g.box_x1 = g.params.width - 1 - trial % 2;
+    g.box_y1 = g.params.height - 3;
+    // A block of the high plane, holes and obstacles at random.
+    const int hx0 = static_cast<int>(u(rng) * 60), hy0 = static_cast<int>(u(rng) * 50);
+    const double holes = 0.002 * (trial % 4), obstacles = 0.001 * (trial % 3);
+    for (int y = g.box_y0; y <= g.box_y1; ++y)
+      for (int x = g.box_x0; x <= g.box_x1; ++x) {
+        const std::size_t c = g.index(x, y);
+        if (u(rng) < holes) continue;
+        const bool on_high = x >= hx0 && x < hx0 + 25 && y >= hy0 && y < hy0 + 20;
+        g.plane_ids[c] = on_high ? 1 : 0;
+        g.heights[c] = on_high ? 0.5f : 0.0f;
+        g.classes[c] = u(rng) < obstacles ? CellClass::Obstacle : on_high ? CellClass::Step : CellClass::Floor;
+      }
+    std::vector<std::uint8_t> s;
+    steppableCells(g, {low, high}, foot, s);
+    ASSERT_EQ(s.size(), static_cast<std::size_t>(n));
+    const auto inBox = [&](int x, int y) { return x >= g.box_x0 && x <= g.box_x1 && y >= g.box_y0 && y <= g.box_y1; };
+    const auto good = [&](int x, int y) {
+      const std::size_t c = g.index(x, y);
+      if (!std::isfinite(g.heights[c]) || g.classes[c] == CellClass::Obstacle || g.plane_ids[c] < 0) return false;
+      if (x + 1 < g.params.width && g.plane_ids[c + 1] != g.plane_ids[c]) return false;
+      if (y + 1 < g.params.height && g.plane_ids[c + g.params.width] != g.plane_ids[c]) return false;
+      return true;
+    };
+    for (int y = 0; y < g.params.height; ++y)
+      for (int x = 0; x < g.params.width; ++x) {
+        const std::size_t c = g.index(x, y);
+        if (!std::isfinite(g.heights[c])) {
+          EXPECT_EQ(s[c], 255) << x << "," << y;
+          continue;
+        }
+        bool fits = true;
+        const int r = static_cast<int>(rc) + 1;
+        for (int dy = -r; dy <= r && fits; ++dy)
+          for (int dx = -r; dx <= r && fits; ++dx)
+            if (dx * dx + dy * dy <= rc * rc) fits = inBox(x + dx, y + dy) && good(x + dx, y + dy);
+        EXPECT_EQ(s[c], fits ? 1 : 0) << "trial " << trial << " cell " << x << "," << y;
+        (fits ? steppable : not_steppable)++;
+      }
+  }
+  // Both answers are common.
+  EXPECT_GT(steppable, 5000);
+  EXPECT_GT(not_steppable, 5000);
+}
+
 TEST(HeightMap, AFootOfAnyYawFitsWhereItsDiscLiesOnOnePlane) {
   // 2 x 2 m of floor (plane 0), a tread 0.15 m up over x 1.0-1.3 (plane 1),
   // an obstacle cell at (0.505, 0.505), a cell nobody saw at (1.705, 1.705),

@@ -887,21 +887,20 @@ void steppableCells(const HeightMapGrid& g, const std::vector<Plane>& planes, co
   const int bx0 = boxed ? std::max(0, g.box_x0) : 0, by0 = boxed ? std::max(0, g.box_y0) : 0;
   const int bx1 = boxed ? std::min(w - 1, g.box_x1) : w - 1, by1 = boxed ? std::min(h - 1, g.box_y1) : h - 1;
   const int bw = bx1 - bx0 + 1, bh = by1 - by0 + 1;
-  // Within the box: its integral image, and each cell's distance along its
-  // row to the nearest bad cell (cells beyond the box are bad).
-  std::vector<std::int32_t> sum(static_cast<std::size_t>(bw + 1) * (bh + 1), 0);
-  std::vector<std::int16_t> dist(static_cast<std::size_t>(bw) * bh);
-  const auto S = [&](int x, int y) -> std::int32_t& { return sum[static_cast<std::size_t>(y) * (bw + 1) + x]; };
-  const auto D = [&](int x, int y) -> std::int16_t& { return dist[static_cast<std::size_t>(y) * bw + x]; };
+  // Within the box: each cell's distance along its row to the nearest bad
+  // cell (cells beyond the box are bad: D <= x + 1 and <= bw - x).
+  // Rows padded to whole blocks of kBlock cells (the padding bad), for the
+  // disc's test below a block at a time.
+  constexpr int kBlock = 16;
+  const int stride = (bw + kBlock - 1) / kBlock * kBlock;
+  std::vector<std::int16_t> dist(static_cast<std::size_t>(stride) * bh, 0);
+  const auto D = [&](int x, int y) -> std::int16_t& { return dist[static_cast<std::size_t>(y) * stride + x]; };
   for (int y = 0; y < bh; ++y) {
-    std::int32_t row = 0;
     std::int16_t last = 0;  // cells since the last bad one (the box's edge is one)
     for (int x = 0; x < bw; ++x) {
       const std::size_t c = g.index(bx0 + x, by0 + y);
       const bool bad = !goodCell(c) || (bx0 + x + 1 < w && apart(c, c + 1)) ||
                        (by0 + y + 1 < h && apart(c, c + static_cast<std::size_t>(w)));
-      row += bad;
-      S(x + 1, y + 1) = S(x + 1, y) + row;
       last = bad ? 0 : static_cast<std::int16_t>(std::min(last + 1, 30000));
       D(x, y) = last;
     }
@@ -911,32 +910,34 @@ void steppableCells(const HeightMapGrid& g, const std::vector<Plane>& planes, co
       D(x, y) = std::min(D(x, y), last);
     }
   }
-  // Bad cells in [x0, x1] x [y0, y1] (box coordinates, inclusive, within it).
-  const auto bad = [&](int x0, int y0, int x1, int y1) { return S(x1 + 1, y1 + 1) - S(x0, y1 + 1) - S(x1 + 1, y0) + S(x0, y0); };
+  // A foot centred on (x, y) rests on good cells alone when every row dy of
+  // the disc of its radius (rc cells: the cells whose centres lie within it)
+  // is clear for its half-width, D(x, y + dy) > half[|dy|]; the box's edges
+  // are bad, so a disc that reaches beyond the box is not clear (in x by D,
+  // in y by the rows it would need). Row by row, a row of the disc at a time
+  // over the whole row (without a branch, a vector at a time).
   const double rc = foot.radius() / g.params.resolution;  // in cells
-  const int r = static_cast<int>(std::floor(rc)), a = static_cast<int>(std::floor(rc / std::sqrt(2.0)));
-  std::vector<int> half(static_cast<std::size_t>(r) + 1);
-  for (int dy = 0; dy <= r; ++dy) half[dy] = static_cast<int>(std::floor(std::sqrt(std::max(0.0, rc * rc - dy * dy))));
-  for (int y = 0; y < bh; ++y)
-    for (int x = 0; x < bw; ++x) {
-      const std::size_t c = g.index(bx0 + x, by0 + y);
-      if (!std::isfinite(g.heights[c])) continue;
-      std::uint8_t& o = out[c];
-      // Beyond the box is unknown: a foot that reaches there is not known to fit.
-      if (D(x, y) == 0 || x < r || y < r || x + r >= bw || y + r >= bh || bad(x - a, y - a, x + a, y + a) > 0) {
-        o = 0;
-        continue;
-      }
-      if (bad(x - r, y - r, x + r, y + r) == 0) {
-        o = 1;
-        continue;
-      }
-      // Between the square within the disc and the square around it: each
-      // row of the disc clear of bad cells for its half-width.
-      o = 1;
-      for (int dy = 0; dy <= r && o; ++dy)
-        if (D(x, y + dy) <= half[dy] || D(x, y - dy) <= half[dy]) o = 0;
+  const int r = static_cast<int>(std::floor(rc));
+  std::vector<std::int16_t> half(static_cast<std::size_t>(r) + 1);
+  for (int dy = 0; dy <= r; ++dy)
+    half[dy] = static_cast<std::int16_t>(std::floor(std::sqrt(std::max(0.0, rc * rc - dy * dy))));
+  std::vector<std::int16_t> clear(static_cast<std::size_t>(stride));
+  for (int y = 0; y < bh; ++y) {
+    const bool inside = y >= r && y + r < bh;
+    std::fill(clear.begin(), clear.end(), static_cast<std::int16_t>(inside));
+    for (int dy = -r; inside && dy <= r; ++dy) {
+      const std::int16_t* __restrict d = &D(0, y + dy);
+      std::int16_t* __restrict k = clear.data();
+      const std::int16_t lim = half[std::abs(dy)];
+      for (int x0 = 0; x0 < stride; x0 += kBlock)
+        for (int x = x0; x < x0 + kBlock; ++x) k[x] &= static_cast<std::int16_t>(d[x] > lim);
     }
+    const std::size_t c0 = g.index(bx0, by0 + y);
+    for (int x = 0; x < bw; ++x) {
+      const float hx = g.heights[c0 + x];
+      out[c0 + x] = hx - hx == 0.0f ? static_cast<std::uint8_t>(clear[x]) : out[c0 + x];
+    }
+  }
 }
 
 }  // namespace core
