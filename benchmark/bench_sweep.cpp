@@ -77,6 +77,44 @@ double medianMs(std::vector<double> v) {
   const std::size_t n = v.size();
   return n == 0 ? 0.0 : 1e3 * (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
 }
+
+/// The recording's lines split and fed, with their joints, to a new
+/// assembler until it finishes a sweep: the first (false if none), or with
+/// `last` the last one. `split_time`: each line's split time, by its stamp.
+bool runSweep(const Recording& rec, core::ScanSplitter& splitter, core::SplitResult& split, bool last,
+              core::SweepResult& done, std::map<double, double>* split_time = nullptr) {
+  core::SweepAssembler a(core::SweepParams(), rec.chain);
+  std::size_t j = 0;
+  bool got = false;
+  for (const core::LineInput& raw : rec.lines) {
+    const double last_beam = raw.stamp + 1080 * raw.time_increment;
+    while (j < rec.joints.size() && rec.joints[j].first <= last_beam + 0.005) {
+      a.addJoint(rec.joints[j].first, rec.joints[j].second);
+      ++j;
+    }
+    core::LineInput in = raw;
+    core::ScanView v;
+    v.ranges = in.ranges.data();
+    v.size = in.ranges.size();
+    v.angle_min = in.angle_min;
+    v.angle_increment = in.angle_increment;
+    v.angle_max = in.angle_min + (v.size - 1) * in.angle_increment;
+    v.range_min = in.range_min;
+    v.range_max = in.range_max;
+    const double t0 = now();
+    splitter.split(v, split);
+    if (split_time) (*split_time)[raw.stamp] = now() - t0;
+    for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
+    a.addLine(std::move(in), last_beam);
+    core::SweepResult r;
+    if (a.poll(last_beam + 0.03, r)) {
+      done = std::move(r);
+      got = true;
+      if (!last) break;
+    }
+  }
+  return got;
+}
 }  // namespace
 
 static void Sweep1081x200(benchmark::State& state) {
@@ -91,36 +129,9 @@ static void Sweep1081x200(benchmark::State& state) {
   core::FusedHeightMap fused{core::HeightMapParams(), core::FusedMapParams()};
   long sweeps = 0, lines = 0, planes = 0;
   for (auto _ : state) {
-    core::SweepAssembler a(core::SweepParams(), rec.chain);
-    std::size_t j = 0;
     core::SweepResult done;
-    bool got = false;
     std::map<double, double> split_time;  // by line stamp: only the finished sweep's lines count
-    for (const core::LineInput& raw : rec.lines) {
-      const double last_beam = raw.stamp + 1080 * raw.time_increment;
-      while (j < rec.joints.size() && rec.joints[j].first <= last_beam + 0.005) {
-        a.addJoint(rec.joints[j].first, rec.joints[j].second);
-        ++j;
-      }
-      core::LineInput in = raw;
-      core::ScanView v;
-      v.ranges = in.ranges.data();
-      v.size = in.ranges.size();
-      v.angle_min = in.angle_min;
-      v.angle_increment = in.angle_increment;
-      v.angle_max = in.angle_min + (v.size - 1) * in.angle_increment;
-      v.range_min = in.range_min;
-      v.range_max = in.range_max;
-      const double t0 = now();
-      splitter.split(v, split);
-      split_time[raw.stamp] = now() - t0;
-      for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
-      a.addLine(std::move(in), last_beam);
-      if (a.poll(last_beam + 0.03, done)) {
-        got = true;
-        break;
-      }
-    }
+    const bool got = runSweep(rec, splitter, split, false, done, &split_time);
     if (!got) {
       state.SkipWithError("no sweep");
       return;
@@ -178,33 +189,10 @@ BENCHMARK(Sweep1081x200)
 // shared machine, for comparing two builds of a layer.
 const core::SweepResult& finishedSweep() {
   static const core::SweepResult sweep = [] {
-    const Recording& rec = recording();
     core::ScanSplitter splitter;
     core::SplitResult split;
-    core::SweepAssembler a(core::SweepParams(), rec.chain);
     core::SweepResult done;
-    std::size_t j = 0;
-    for (const core::LineInput& raw : rec.lines) {
-      const double last_beam = raw.stamp + 1080 * raw.time_increment;
-      while (j < rec.joints.size() && rec.joints[j].first <= last_beam + 0.005) {
-        a.addJoint(rec.joints[j].first, rec.joints[j].second);
-        ++j;
-      }
-      core::LineInput in = raw;
-      core::ScanView v;
-      v.ranges = in.ranges.data();
-      v.size = in.ranges.size();
-      v.angle_min = in.angle_min;
-      v.angle_increment = in.angle_increment;
-      v.angle_max = in.angle_min + (v.size - 1) * in.angle_increment;
-      v.range_min = in.range_min;
-      v.range_max = in.range_max;
-      splitter.split(v, split);
-      for (const auto& s : split.segments) in.segments.emplace_back(s.first, s.last);
-      a.addLine(std::move(in), last_beam);
-      core::SweepResult r;
-      if (a.poll(last_beam + 0.03, r)) done = std::move(r);
-    }
+    runSweep(recording(), splitter, split, true, done);
     return done;
   }();
   return sweep;

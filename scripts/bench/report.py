@@ -236,7 +236,7 @@ class Report:
         kv = dict(re.findall(r"(\w+(?:/\w+)?)=([0-9.]+)", med[0])) if med else {}
         rows = [[k, f"{v:.1f} us"] for k, v in split.items() if "/" in k]
         for key, what in (("split_ms", "split of a 1081 x 200 sweep"), ("group_ms", "grouping of that sweep, as lines arrive"),
-                          ("latency_ms", "latency after its last line (finish, map, fused map)"),
+                          ("latency_ms", "latency after its last line (finish, map, its uncertainty layer)"),
                           ("finish_ms", "of it: the grouping's finish"), ("map_ms", "of it: the height map"),
                           ("sigma_ms", "of it: the map's uncertainty layer"),
                           ("steppable_ms", "the steppable layer besides (built while subscribed)")):
