@@ -1204,3 +1204,30 @@ TEST(Grouping, ALoneLineDownARiserOntoTheFloorGivesItsRiserPartToTheRiser) {
     EXPECT_LE(first, 60);
   }
 }
+
+TEST(Grouping, PointsBesideALaserOnAnArmAreNoPlaneThroughItsOwnOrigins) {
+  // A nodding laser on an arm a from its axle (room_240's stand: 8 cm) sees
+  // what lies beside it (its beams at +-90 degrees) at its own place on the
+  // arm, whatever the tilt: a slow sweep's lines put those points on the
+  // cylinder its origins move on. Over 60 degrees of tilt they fit the plane
+  // of the arc's chord within a centimetre and spread across it by
+  // centimetres, but that plane passes through the lines' own origins: it is
+  // their scan planes' envelope, which no ray of theirs can see. No plane.
+  // (The wall they lie on, seen by the lines' other beams, is the plane.)
+  const double a = 0.15;
+  const Eigen::Vector3d axle(0.0, 0.0, 1.5);
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k <= 600; ++k) {
+    const double t = (0.1 * k) * M_PI / 180.0;
+    const Eigen::Vector3d o = axle + a * Eigen::Vector3d(std::sin(t), 0.0, std::cos(t));
+    Segment3 s = seg(k, 600, o + Eigen::Vector3d(0.0, 0.3, 0.0), o + Eigen::Vector3d(0.0, 1.0, 0.0));
+    s.origin = o;
+    s.range = 0.65;
+    lines.push_back({s});
+  }
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  for (const auto& p : planes)
+    ADD_FAILURE() << "a plane of " << p.segments << " segments, normal (" << p.fit.normal.transpose() << "), "
+                  << std::abs(p.fit.normal.dot(axle) - p.fit.offset) << " m from the axle";
+}

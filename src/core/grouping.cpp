@@ -446,7 +446,12 @@ namespace {
 constexpr double kSinNearScanPlane = 0.5;  // sin 30 degrees
 }  // namespace
 
-double ScanLineGrouper::spreadAcross(const Region& r) {
+double ScanLineGrouper::spreadAcross(const Region& r) const {
+  // A plane through the origin of its lines' rays is one no ray of theirs
+  // can see: it is the envelope of their scan planes (where the lines of a
+  // laser on an arm meet, beside it), which points there fit whatever their
+  // surface. Its lines fix no normal: within a centroid's tolerance of it.
+  if (std::abs(r.fit.normal.dot(r.origin) - r.fit.offset) <= p_.centroid_min) return 0.0;
   if (r.across.isZero() || r.moments.n < 1.0) return r.fit.spread(1);
   // Within the plane, across the lines: the scan plane's normal projected on
   // it. Where the plane lies near the scan plane, one line's own spread
@@ -467,6 +472,7 @@ int ScanLineGrouper::newRegion(int si) {
   if (s.origin.allFinite()) {
     const Eigen::Vector3d n = (s.start - s.origin).cross(s.end - s.origin);
     if (n.norm() > 1e-9) r.across = n.normalized();
+    r.origin = s.origin;
   }
   r.moments = s.moments;
   r.members = {si};

@@ -168,6 +168,8 @@ class ScanLineGrouper {
     /// whatever the surface: only their spread out of it, across the lines,
     /// fixes the surface's normal.
     Eigen::Vector3d across = Eigen::Vector3d::Zero();
+    /// Where its first segment's rays came from (NaN: unknown).
+    Eigen::Vector3d origin = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   };
   /// Whether s may join r (and a score, lowest best). `lone`: s is a segment
   /// no plane took (the late joins); beyond the tolerance of r's plane it
@@ -175,15 +177,16 @@ class ScanLineGrouper {
   bool fits(const Region& r, const Segment3& s, double& score, bool lone = false) const;
   /// How far r's points spread across its lines within its plane [m]
   /// (counted less where the plane lies within 30 degrees of its first scan
-  /// plane, where one line's own spread would pass for it).
-  static double spreadAcross(const Region& r);
+  /// plane, where one line's own spread would pass for it; none where the
+  /// plane passes through its first line's origin).
+  double spreadAcross(const Region& r) const;
   /// Whether r's lines lie far enough apart to fix its normal.
-  static bool planar(const Region& r) { return r.last_line > r.first_line && spreadAcross(r) > kPlanarSpread; }
+  bool planar(const Region& r) const { return r.last_line > r.first_line && spreadAcross(r) > kPlanarSpread; }
   /// Points spread this much across their lines, or more, fix a normal [m].
   static constexpr double kPlanarSpread = 0.02;
   /// Three lines or more span a plane (two parallel lines fit any plane
   /// through both), if they lie far enough apart.
-  static bool confirmed(const Region& r) { return r.lines >= 3 && planar(r); }
+  bool confirmed(const Region& r) const { return r.lines >= 3 && planar(r); }
   /// The region `among` those of `min_lines` lines (at least two) or more (not `except`)
   /// that s fits best (`lone`: see fits()); it must overlap a member of the lines near s. -1 for none.
   int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines, bool lone = false) const;
