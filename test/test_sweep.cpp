@@ -641,3 +641,24 @@ TEST(SweepAssembler, ASpinSpanIsValidated) {
   p.spin_span = M_PI;
   EXPECT_EQ(p.validate(), "");
 }
+
+TEST(SweepAssembler, ASweepCarriesTheGroupingParametersItsPlanesCameFrom) {
+  // The height map holds a plane's points and corners to the tolerances the
+  // plane was grouped with: the sweep says which. New ones (a reconfigure)
+  // apply from the next sweep on.
+  SweepParams p = shortSweeps();
+  p.grouping.dist_min = 0.04;
+  TiltChain chain;
+  chain.base_to_joint.translation() = Eigen::Vector3d(0, 0, 1.4);
+  SweepAssembler a(p, chain);
+  std::vector<SweepResult> sweeps;
+  GroupingParams g = p.grouping;
+  g.dist_min = 0.05;
+  bool set = false;
+  drive(a, triangle, 3.0, 0.0, &sweeps, nullptr, [&] {
+    if (!set && !sweeps.empty()) a.setGroupingParams(g), set = true;
+  });
+  ASSERT_GE(sweeps.size(), 3u);
+  EXPECT_DOUBLE_EQ(sweeps.front().grouping.dist_min, 0.04);
+  EXPECT_DOUBLE_EQ(sweeps.back().grouping.dist_min, 0.05);
+}

@@ -199,7 +199,6 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     ch.to.clear();
   };
   std::vector<int> mem;
-  const GroupingParams grouping_defaults;  // the shift along a ray a corner may take (cornerOnPlane)
   // Whether the ray of beam b of line l passed the plane: it ends beyond it
   // by more than obstacle_min_height (`at`: where it crossed the plane, x
   // y), or nowhere (no return; `at` NaN). Beside the plane's end there, that
@@ -246,7 +245,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     const auto onPlane = [&](int c) {
       if (c < 0 || c >= static_cast<int>(line.points.size()) || !line.points[c].allFinite()) return false;
       const Eigen::Vector3d q = line.points[c].cast<double>();
-      return std::abs(f.normal.dot(q) - f.offset) <= grouping_defaults.threshold((q - line.origin.cast<double>()).norm()) &&
+      return std::abs(f.normal.dot(q) - f.offset) <= sweep.grouping.threshold((q - line.origin.cast<double>()).norm()) &&
              !inSegment(l, c);
     };
     int c = b + step;
@@ -374,7 +373,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     mem = pl.members;
     std::sort(mem.begin(), mem.end());  // segments come line by line, in beam order
     const auto onPlane = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& origin) {
-      const Eigen::Vector3d q = cornerOnPlane(x, origin, pl.fit, grouping_defaults);
+      const Eigen::Vector3d q = cornerOnPlane(x, origin, pl.fit, sweep.grouping);
       return Eigen::Vector2d(q.x(), q.y());
     };
     // Pieces: a line's segments of the plane that follow each other with at
@@ -808,7 +807,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
             // where its centre lies inside, and between the line's points
             // and the outline through the line's ends a cell's centre would
             // lie in neither, left to what was seen beneath.)
-            const Eigen::Vector2d on = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults).head<2>();
+            const Eigen::Vector2d on = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, sweep.grouping).head<2>();
             const Eigen::Vector2d e = q->cast<double>().head<2>();
             const double pull = range_noise.significance * range_noise.rangeSigma((*q - sweep.lines[next].origin).norm());
             const double gap = (on - e).norm();
@@ -818,7 +817,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
             flushEdge(pl);
           }
           if (open) {
-            from = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, grouping_defaults).head<2>();
+            from = cornerOnPlane(lo.points[b].cast<double>(), s.origin, f, sweep.grouping).head<2>();
             const Eigen::Vector2d band = to - from;
             const double ends = (sweep.lines[next].points[b].cast<double>().head<2>() - from).dot(band);  // along the band
             open = band.squaredNorm() > 0.0 && (ends < 0.0 || ends > band.squaredNorm());

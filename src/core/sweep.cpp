@@ -279,6 +279,7 @@ bool SweepAssembler::finishSweep(double end, SweepResult& out) {
     grouper_.finish(current_.planes, [this](int line) { return &current_.lines[line].points; });
   }
   current_.finish_seconds = cpuNow() - t0;
+  current_.grouping = grouper_.params();
   current_.segments = grouper_.segments();
   current_.segment_plane = grouper_.segmentPlane();
   if (p_.reverse_lines) {

@@ -105,6 +105,9 @@ struct SweepResult {
   std::vector<Segment3> segments;   ///< all segments, lines in order
   std::vector<int> segment_plane;   ///< plane of each segment, -1 none
   std::vector<Plane> planes;
+  /// What its planes were grouped with: the tolerances the height map holds
+  /// a plane's points and corners to are the same.
+  GroupingParams grouping;
   int dropped_lines = 0;            ///< lines dropped, and lines that never came (an outage), within the sweep
   double group_seconds = 0.0;       ///< CPU time of putting lines in 3D and grouping them as they came [s]
   double finish_seconds = 0.0;      ///< time from the sweep's end to its planes [s]
@@ -178,8 +181,8 @@ class SweepAssembler {
   const std::string& lastWarning() const { return warning_; }
 
  private:
-  std::optional<GroupingParams> next_grouping_;
-  std::vector<std::vector<Segment3>> held_;  ///< reverse_lines: the sweep's segments, line by line, grouped at its end  ///< from setGroupingParams, taken when the next sweep begins
+  std::optional<GroupingParams> next_grouping_;  ///< from setGroupingParams, taken when the next sweep begins
+  std::vector<std::vector<Segment3>> held_;      ///< reverse_lines: the sweep's segments, line by line, grouped at its end
   /// The base's motion within a line: its pose at the middle beam, and the
   /// change of its position and orientation (rotation vector) from the first
   /// beam to the last, in the assembly frame (zero when it stands still).
