@@ -70,7 +70,15 @@ def test_a_live_walk_replayed_gives_the_same_planes_and_maps():
             time.sleep(2.0)
             live = roslaunch(port, "sim.launch", f"port:={port + 3000}", f"servo_link:={work}/servo", f"walk:={walk}",
                              log=log)
-            time.sleep(14.0)
+            # At least 14 s, and at least ten sweeps' planes: a loaded machine
+            # starts the head late (CI once recorded 7 sweeps in 14 s).
+            t0 = time.monotonic()
+            try:
+                subprocess.run(["rostopic", "echo", "-n", "10", "/planes/header/seq"], env=env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=60)
+            except subprocess.TimeoutExpired:
+                pass
+            time.sleep(max(0.0, 14.0 - (time.monotonic() - t0)))
         finally:
             for proc in (live, rec, master):
                 if proc:
