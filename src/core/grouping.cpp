@@ -435,6 +435,8 @@ void ScanLineGrouper::addMember(int region, int si) {
   const Segment3& s = segs_[si];
   const auto at = to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), si), si);
   to.moments += s.moments;
+  to.rays += rays(s);
+  to.rays_n += s.origin.allFinite() ? s.moments.n : 0.0;
   to.fit = fitPlane(to.moments);
   to.first_line = std::min(to.first_line, s.line);
   to.last_line = std::max(to.last_line, s.line);
@@ -446,12 +448,21 @@ namespace {
 constexpr double kSinNearScanPlane = 0.5;  // sin 30 degrees
 }  // namespace
 
+Eigen::Matrix3d ScanLineGrouper::rays(const Segment3& s) {
+  if (!s.origin.allFinite()) return Eigen::Matrix3d::Zero();
+  const Eigen::Vector3d u = (s.moments.mean() - s.origin).normalized();
+  return s.moments.n * u * u.transpose();
+}
+
 double ScanLineGrouper::spreadAcross(const Region& r) const {
-  // A plane through the origin of its lines' rays is one no ray of theirs
-  // can see: it is the envelope of their scan planes (where the lines of a
-  // laser on an arm meet, beside it), which points there fit whatever their
-  // surface. Its lines fix no normal: within a centroid's tolerance of it.
-  if (std::abs(r.fit.normal.dot(r.origin) - r.fit.offset) <= p_.centroid_min) return 0.0;
+  // A plane that the rays which saw its points graze is one they cannot
+  // see: the envelope of their scan planes (where the lines of a laser on an
+  // arm meet beside it, or a nodding head's lines meet where its axis
+  // pierces a wall), which points there fit whatever their surface. Its
+  // lines fix no normal: the rays meet it at a mean squared sine under a
+  // grazing ray's.
+  if (r.rays_n > 0.0 && r.fit.normal.dot(r.rays * r.fit.normal) < kMinRayIncidence * kMinRayIncidence * r.rays_n)
+    return 0.0;
   if (r.across.isZero() || r.moments.n < 1.0) return r.fit.spread(1);
   // Within the plane, across the lines: the scan plane's normal projected on
   // it. Where the plane lies near the scan plane, one line's own spread
@@ -472,9 +483,10 @@ int ScanLineGrouper::newRegion(int si) {
   if (s.origin.allFinite()) {
     const Eigen::Vector3d n = (s.start - s.origin).cross(s.end - s.origin);
     if (n.norm() > 1e-9) r.across = n.normalized();
-    r.origin = s.origin;
   }
   r.moments = s.moments;
+  r.rays = rays(s);
+  r.rays_n = s.origin.allFinite() ? s.moments.n : 0.0;
   r.members = {si};
   r.first_line = r.last_line = s.line;
   r.lines = 1;
@@ -640,6 +652,8 @@ void ScanLineGrouper::removeMember(int region, int si) {
   if (!lineShared(r.members, at - r.members.begin())) --r.lines;
   r.members.erase(at);
   r.moments -= m;
+  r.rays -= rays(segs_[si]);
+  r.rays_n -= segs_[si].origin.allFinite() ? m.n : 0.0;
   r.fit = fitPlane(r.moments);
   r.first_line = segs_[r.members.front()].line;
   r.last_line = segs_[r.members.back()].line;
@@ -774,6 +788,8 @@ void ScanLineGrouper::absorb(int into, int from) {
   Region& a = regions_[into];
   Region& b = regions_[from];
   a.moments += b.moments;
+  a.rays += b.rays;
+  a.rays_n += b.rays_n;
   for (int m : b.members) seg_region_[m] = into;
   a.members.insert(a.members.end(), b.members.begin(), b.members.end());
   std::sort(a.members.begin(), a.members.end());  // segment indices grow with the line
@@ -832,6 +848,8 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
     const int best = matches[0].second;
     Region& r = regions_[best];
     r.moments += s.moments;
+    r.rays += rays(s);
+    r.rays_n += s.origin.allFinite() ? s.moments.n : 0.0;
     r.members.insert(std::upper_bound(r.members.begin(), r.members.end(), idx), idx);  // sorted: lines in order
     if (l > r.last_line) ++r.lines;
     r.last_line = l;
@@ -1520,7 +1538,13 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       continue;
     }
     r.moments = Moments3();
-    for (int m : r.members) r.moments += segs_[m].moments;
+    r.rays.setZero();
+    r.rays_n = 0.0;
+    for (int m : r.members) {
+      r.moments += segs_[m].moments;
+      r.rays += rays(segs_[m]);
+      r.rays_n += segs_[m].origin.allFinite() ? segs_[m].moments.n : 0.0;
+    }
     r.fit = fitPlane(r.moments);
     r.first_line = segs_[r.members.front()].line;
     r.last_line = segs_[r.members.back()].line;

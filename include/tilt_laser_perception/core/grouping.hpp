@@ -168,8 +168,12 @@ class ScanLineGrouper {
     /// whatever the surface: only their spread out of it, across the lines,
     /// fixes the surface's normal.
     Eigen::Vector3d across = Eigen::Vector3d::Zero();
-    /// Where its first segment's rays came from (NaN: unknown).
-    Eigen::Vector3d origin = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+    /// Its members' rays: the sum over them of points x u u^T, u the unit
+    /// ray from a segment's origin to its centroid (rays()). n^T rays n over
+    /// the points is the mean squared sine at which they meet a plane of
+    /// normal n.
+    Eigen::Matrix3d rays = Eigen::Matrix3d::Zero();
+    double rays_n = 0.0;
   };
   /// Whether s may join r (and a score, lowest best). `lone`: s is a segment
   /// no plane took (the late joins); beyond the tolerance of r's plane it
@@ -178,8 +182,10 @@ class ScanLineGrouper {
   /// How far r's points spread across its lines within its plane [m]
   /// (counted less where the plane lies within 30 degrees of its first scan
   /// plane, where one line's own spread would pass for it; none where the
-  /// plane passes through its first line's origin).
+  /// rays that saw its points graze its plane).
   double spreadAcross(const Region& r) const;
+  /// A segment's share of Region::rays (zero where its origin is unknown).
+  static Eigen::Matrix3d rays(const Segment3& s);
   /// Whether r's lines lie far enough apart to fix its normal.
   bool planar(const Region& r) const { return r.last_line > r.first_line && spreadAcross(r) > kPlanarSpread; }
   /// Points spread this much across their lines, or more, fix a normal [m].
