@@ -436,7 +436,6 @@ void ScanLineGrouper::addMember(int region, int si) {
   const auto at = to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), si), si);
   to.moments += s.moments;
   to.rays += rays(s);
-  to.rays_n += s.origin.allFinite() ? s.moments.n : 0.0;
   to.fit = fitPlane(to.moments);
   to.first_line = std::min(to.first_line, s.line);
   to.last_line = std::max(to.last_line, s.line);
@@ -460,8 +459,9 @@ double ScanLineGrouper::spreadAcross(const Region& r) const {
   // arm meet beside it, or a nodding head's lines meet where its axis
   // pierces a wall), which points there fit whatever their surface. Its
   // lines fix no normal: the rays meet it at a mean squared sine under a
-  // grazing ray's.
-  if (r.rays_n > 0.0 && r.fit.normal.dot(r.rays * r.fit.normal) < kMinRayIncidence * kMinRayIncidence * r.rays_n)
+  // grazing ray's. (The trace of `rays` is their points' number.)
+  const double with_rays = r.rays.trace();
+  if (with_rays > 0.0 && r.fit.normal.dot(r.rays * r.fit.normal) < kMinRayIncidence * kMinRayIncidence * with_rays)
     return 0.0;
   if (r.across.isZero() || r.moments.n < 1.0) return r.fit.spread(1);
   // Within the plane, across the lines: the scan plane's normal projected on
@@ -486,7 +486,6 @@ int ScanLineGrouper::newRegion(int si) {
   }
   r.moments = s.moments;
   r.rays = rays(s);
-  r.rays_n = s.origin.allFinite() ? s.moments.n : 0.0;
   r.members = {si};
   r.first_line = r.last_line = s.line;
   r.lines = 1;
@@ -653,7 +652,6 @@ void ScanLineGrouper::removeMember(int region, int si) {
   r.members.erase(at);
   r.moments -= m;
   r.rays -= rays(segs_[si]);
-  r.rays_n -= segs_[si].origin.allFinite() ? m.n : 0.0;
   r.fit = fitPlane(r.moments);
   r.first_line = segs_[r.members.front()].line;
   r.last_line = segs_[r.members.back()].line;
@@ -789,7 +787,6 @@ void ScanLineGrouper::absorb(int into, int from) {
   Region& b = regions_[from];
   a.moments += b.moments;
   a.rays += b.rays;
-  a.rays_n += b.rays_n;
   for (int m : b.members) seg_region_[m] = into;
   a.members.insert(a.members.end(), b.members.begin(), b.members.end());
   std::sort(a.members.begin(), a.members.end());  // segment indices grow with the line
@@ -849,7 +846,6 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
     Region& r = regions_[best];
     r.moments += s.moments;
     r.rays += rays(s);
-    r.rays_n += s.origin.allFinite() ? s.moments.n : 0.0;
     r.members.insert(std::upper_bound(r.members.begin(), r.members.end(), idx), idx);  // sorted: lines in order
     if (l > r.last_line) ++r.lines;
     r.last_line = l;
@@ -1539,11 +1535,9 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     }
     r.moments = Moments3();
     r.rays.setZero();
-    r.rays_n = 0.0;
     for (int m : r.members) {
       r.moments += segs_[m].moments;
       r.rays += rays(segs_[m]);
-      r.rays_n += segs_[m].origin.allFinite() ? segs_[m].moments.n : 0.0;
     }
     r.fit = fitPlane(r.moments);
     r.first_line = segs_[r.members.front()].line;

@@ -170,10 +170,9 @@ class ScanLineGrouper {
     Eigen::Vector3d across = Eigen::Vector3d::Zero();
     /// Its members' rays: the sum over them of points x u u^T, u the unit
     /// ray from a segment's origin to its centroid (rays()). n^T rays n over
-    /// the points is the mean squared sine at which they meet a plane of
-    /// normal n.
+    /// its trace (the points with a known origin) is the mean squared sine at
+    /// which they meet a plane of normal n.
     Eigen::Matrix3d rays = Eigen::Matrix3d::Zero();
-    double rays_n = 0.0;
   };
   /// Whether s may join r (and a score, lowest best). `lone`: s is a segment
   /// no plane took (the late joins); beyond the tolerance of r's plane it
