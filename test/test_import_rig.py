@@ -197,14 +197,16 @@ def test_room_240_imports_and_groups(tmp_path):
     assert int(f.group(2)) > 5000 and float(f.group(3)) >= 80.0, grouped
     assert abs(int(f.group(4)) - 90) <= 2 and abs(float(f.group(5)) - 1.13) < 0.03, grouped
     assert int(f.group(6)) > 90000 and float(f.group(7)) >= 80.0, grouped
-    # The lines in the other order: the wall 60 % in one plane, its part beside
-    # the stand (x < 0.2 m) a plane of its own 6 degrees off it (the order
-    # still matters here: issue 38).
+    # The lines in the other order: the wall 56 % in one plane, its part beside
+    # the stand (x < 0.2 m) a plane of its own 6 degrees off it, and the
+    # envelope beside the laser holding some of it (the order still matters
+    # here: issue 38; 60.5 % before the grazing-rays test, which made
+    # first_scan's sweep 1 wall 61.6 -> 83.7 % reversed).
     rev = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--floor-z", "0.10", "--reverse")
     r = re.search(r"floor at z=[-\d.]+ m: \d+ points, ([\d.]+) % in plane .* largest wall \(normal (\d+) deg, "
                   r"([-\d.]+) m\): (\d+) points, ([\d.]+) % in plane", rev)
     assert r and float(r.group(1)) >= 80.0 and abs(float(r.group(3)) - 1.13) < 0.03, rev
-    assert int(r.group(4)) == int(f.group(6)) and float(r.group(5)) >= 57.0, rev
+    assert int(r.group(4)) == int(f.group(6)) and float(r.group(5)) >= 55.0, rev
 
 
 @pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "cardboard_box.bag")),
