@@ -1218,37 +1218,37 @@ TEST(Grouping, PointsBesideALaserOnAnArmAreNoPlaneTheirRaysGraze) {
   // line's origin: a test of that distance against a centroid's tolerance
   // let a plane of 284 segments through.)
   for (const double a : {0.15, 0.6}) {
-  SCOPED_TRACE(a);
-  const Eigen::Vector3d axle(0.0, 0.0, 1.5);
-  std::vector<std::vector<Segment3>> lines;
-  for (int k = 0; k <= 600; ++k) {
-    const double t = (0.1 * k) * M_PI / 180.0;
-    const Eigen::Vector3d o = axle + a * Eigen::Vector3d(std::sin(t), 0.0, std::cos(t));
-    lines.emplace_back();
-    if (t >= 20.0 * M_PI / 180.0) {  // the floor (z = 0) where the line's middle beam meets it
-      const double x = o.x() + o.z() / std::tan(t);
-      Segment3 f = seg(k, 300, {x, -0.4, 0.0}, {x, 0.4, 0.0});
-      f.origin = o;
-      f.range = (Eigen::Vector3d(x, 0.0, 0.0) - o).norm();
-      lines.back().push_back(f);
+    SCOPED_TRACE(a);
+    const Eigen::Vector3d axle(0.0, 0.0, 1.5);
+    std::vector<std::vector<Segment3>> lines;
+    for (int k = 0; k <= 600; ++k) {
+      const double t = (0.1 * k) * M_PI / 180.0;
+      const Eigen::Vector3d o = axle + a * Eigen::Vector3d(std::sin(t), 0.0, std::cos(t));
+      lines.emplace_back();
+      if (t >= 20.0 * M_PI / 180.0) {  // the floor (z = 0) where the line's middle beam meets it
+        const double x = o.x() + o.z() / std::tan(t);
+        Segment3 f = seg(k, 300, {x, -0.4, 0.0}, {x, 0.4, 0.0});
+        f.origin = o;
+        f.range = (Eigen::Vector3d(x, 0.0, 0.0) - o).norm();
+        lines.back().push_back(f);
+      }
+      Segment3 s = seg(k, 600, o + Eigen::Vector3d(0.0, 0.3, 0.0), o + Eigen::Vector3d(0.0, 1.0, 0.0));
+      s.origin = o;
+      s.range = 0.65;
+      lines.back().push_back(s);
     }
-    Segment3 s = seg(k, 600, o + Eigen::Vector3d(0.0, 0.3, 0.0), o + Eigen::Vector3d(0.0, 1.0, 0.0));
-    s.origin = o;
-    s.range = 0.65;
-    lines.back().push_back(s);
-  }
-  ScanLineGrouper g;
-  const auto planes = group(lines, g);
-  int floors = 0;
-  for (const auto& p : planes) {
-    if (std::abs(p.fit.normal.z()) > 0.9999 && std::abs(p.fit.offset) < 1e-6) {
-      ++floors;
-      EXPECT_EQ(p.segments, 401);  // every line from 20 degrees on
-      continue;
+    ScanLineGrouper g;
+    const auto planes = group(lines, g);
+    int floors = 0;
+    for (const auto& p : planes) {
+      if (std::abs(p.fit.normal.z()) > 0.9999 && std::abs(p.fit.offset) < 1e-6) {
+        ++floors;
+        EXPECT_EQ(p.segments, 401);  // every line from 20 degrees on
+        continue;
+      }
+      ADD_FAILURE() << "a plane of " << p.segments << " segments, normal (" << p.fit.normal.transpose() << "), "
+                    << std::abs(p.fit.normal.dot(axle) - p.fit.offset) << " m from the axle";
     }
-    ADD_FAILURE() << "a plane of " << p.segments << " segments, normal (" << p.fit.normal.transpose() << "), "
-                  << std::abs(p.fit.normal.dot(axle) - p.fit.offset) << " m from the axle";
-  }
-  EXPECT_EQ(floors, 1);
+    EXPECT_EQ(floors, 1);
   }
 }

@@ -435,7 +435,7 @@ void ScanLineGrouper::addMember(int region, int si) {
   const Segment3& s = segs_[si];
   const auto at = to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), si), si);
   to.moments += s.moments;
-  to.rays += rays(s);
+  to.rays += raysOf(s);
   to.fit = fitPlane(to.moments);
   to.first_line = std::min(to.first_line, s.line);
   to.last_line = std::max(to.last_line, s.line);
@@ -447,7 +447,7 @@ namespace {
 constexpr double kSinNearScanPlane = 0.5;  // sin 30 degrees
 }  // namespace
 
-Eigen::Matrix3d ScanLineGrouper::rays(const Segment3& s) {
+Eigen::Matrix3d ScanLineGrouper::raysOf(const Segment3& s) {
   if (!s.origin.allFinite()) return Eigen::Matrix3d::Zero();
   const Eigen::Vector3d u = (s.moments.mean() - s.origin).normalized();
   return s.moments.n * u * u.transpose();
@@ -485,7 +485,7 @@ int ScanLineGrouper::newRegion(int si) {
     if (n.norm() > 1e-9) r.across = n.normalized();
   }
   r.moments = s.moments;
-  r.rays = rays(s);
+  r.rays = raysOf(s);
   r.members = {si};
   r.first_line = r.last_line = s.line;
   r.lines = 1;
@@ -651,7 +651,7 @@ void ScanLineGrouper::removeMember(int region, int si) {
   if (!lineShared(r.members, at - r.members.begin())) --r.lines;
   r.members.erase(at);
   r.moments -= m;
-  r.rays -= rays(segs_[si]);
+  r.rays -= raysOf(segs_[si]);
   r.fit = fitPlane(r.moments);
   r.first_line = segs_[r.members.front()].line;
   r.last_line = segs_[r.members.back()].line;
@@ -845,7 +845,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
     const int best = matches[0].second;
     Region& r = regions_[best];
     r.moments += s.moments;
-    r.rays += rays(s);
+    r.rays += raysOf(s);
     r.members.insert(std::upper_bound(r.members.begin(), r.members.end(), idx), idx);  // sorted: lines in order
     if (l > r.last_line) ++r.lines;
     r.last_line = l;
@@ -1537,7 +1537,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     r.rays.setZero();
     for (int m : r.members) {
       r.moments += segs_[m].moments;
-      r.rays += rays(segs_[m]);
+      r.rays += raysOf(segs_[m]);
     }
     r.fit = fitPlane(r.moments);
     r.first_line = segs_[r.members.front()].line;

@@ -169,7 +169,7 @@ class ScanLineGrouper {
     /// fixes the surface's normal.
     Eigen::Vector3d across = Eigen::Vector3d::Zero();
     /// Its members' rays: the sum over them of points x u u^T, u the unit
-    /// ray from a segment's origin to its centroid (rays()). n^T rays n over
+    /// ray from a segment's origin to its centroid (raysOf()). n^T rays n over
     /// its trace (the points with a known origin) is the mean squared sine at
     /// which they meet a plane of normal n.
     Eigen::Matrix3d rays = Eigen::Matrix3d::Zero();
@@ -184,7 +184,7 @@ class ScanLineGrouper {
   /// rays that saw its points graze its plane).
   double spreadAcross(const Region& r) const;
   /// A segment's share of Region::rays (zero where its origin is unknown).
-  static Eigen::Matrix3d rays(const Segment3& s);
+  static Eigen::Matrix3d raysOf(const Segment3& s);
   /// Whether r's lines lie far enough apart to fix its normal.
   bool planar(const Region& r) const { return r.last_line > r.first_line && spreadAcross(r) > kPlanarSpread; }
   /// Points spread this much across their lines, or more, fix a normal [m].
