@@ -55,10 +55,7 @@ void ScanSplitterNodelet::connectCallback() {
   const bool wanted = segments_pub_.getNumSubscribers() > 0 || markers_pub_.getNumSubscribers() > 0;
   if (wanted && !scan_sub_) {
     health_.forgetSequences();  // the scans while nobody listened were not lost
-    // 50 scans (1.25 s at 40 Hz), as the grouper queues them: a loaded
-    // machine's stall of a few hundred milliseconds (seen in CI's replay at
-    // 10) is caught up, not a scan lost.
-    scan_sub_ = getNodeHandle().subscribe("scan", 50, &ScanSplitterNodelet::scanCallback, this);
+    scan_sub_ = getNodeHandle().subscribe("scan", kScanQueue, &ScanSplitterNodelet::scanCallback, this);
     NODELET_DEBUG("output subscribed: subscribing to %s", scan_sub_.getTopic().c_str());
   } else if (!wanted && scan_sub_) {
     scan_sub_.shutdown();

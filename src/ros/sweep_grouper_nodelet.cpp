@@ -163,10 +163,10 @@ void SweepGrouperNodelet::onInit() {
   reconfigure_server_->setCallback([this](SweepGrouperConfig& c, uint32_t level) { reconfigure(c, level); });
   // The scans and their splits are checked before they are paired: the
   // synchronizer holds only messages that passed (bounded in size).
-  sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>>(50);
+  sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::LaserScan, ScanSegments>>(kScanQueue);
   sync_->registerCallback(boost::bind(&SweepGrouperNodelet::onScan, this, boost::placeholders::_1, boost::placeholders::_2));
-  scan_sub_ = nh.subscribe("scan", 50, &SweepGrouperNodelet::onScanIn, this);
-  segments_sub_ = nh.subscribe("scan_segments", 50, &SweepGrouperNodelet::onSegmentsIn, this);
+  scan_sub_ = nh.subscribe("scan", kScanQueue, &SweepGrouperNodelet::onScanIn, this);
+  segments_sub_ = nh.subscribe("scan_segments", kScanQueue, &SweepGrouperNodelet::onSegmentsIn, this);
   ros::SubscribeOptions joints;
   joints.init<sensor_msgs::JointState>("joint_states", 500,
                                        boost::bind(&SweepGrouperNodelet::onJointInline, this, boost::placeholders::_1));

@@ -4,6 +4,8 @@
  */
 #pragma once
 
+#include <cstdint>
+
 #include <sensor_msgs/LaserScan.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -12,6 +14,12 @@
 #include "tilt_laser_perception/core/sweep.hpp"
 
 namespace tilt_laser_perception {
+
+/// The scans (and their splits) a subscriber queues: 1.25 s at 40 Hz. A
+/// loaded machine's stall of a few hundred milliseconds (seen in CI's replay
+/// with 10) is caught up, not a good scan lost. The splitter, the grouper and
+/// the grouper's pairing of scans with their splits all hold this many.
+constexpr std::uint32_t kScanQueue = 50;
 
 /// A view of a LaserScan for the splitter (points into the message). Intensities of
 /// another length than the ranges are left out (the ranges are kept).
@@ -44,13 +52,13 @@ void segmentMarkers(const ScanSegments& segments, visualization_msgs::MarkerArra
 
 namespace tilt_laser_perception {
 
+/// A URDF origin as an isometry.
+Eigen::Isometry3d toIsometry(const urdf::Pose& p);
+
 /// The tilt chain from a URDF: the joint's parent link (whose pose comes from
 /// tf), the joint's origin and axis, and the fixed joints from its child link
 /// to `laser_frame`. False with a message when the joint is missing, not
 /// revolute, or a joint between it and the laser is not fixed.
-/// A URDF origin as an isometry.
-Eigen::Isometry3d toIsometry(const urdf::Pose& p);
-
 bool tiltChainFromUrdf(const urdf::Model& model, const std::string& joint, const std::string& laser_frame,
                        core::TiltChain& chain, std::string& parent_link, std::string& error);
 
