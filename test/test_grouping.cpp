@@ -1252,3 +1252,59 @@ TEST(Grouping, PointsBesideALaserOnAnArmAreNoPlaneTheirRaysGraze) {
     EXPECT_EQ(floors, 1);
   }
 }
+
+TEST(Grouping, APlaneNearerTheLaserThanItsArmIsNoPlane) {
+  // The same laser on an 8 cm arm (room_240's stand), now with what lies
+  // beside it seen a little off its scan plane's tangent: points 0.1-0.3 m
+  // out, on a plane 4 cm inside the arc its origins move on. Their rays
+  // meet that plane at 0.13-0.4 (no graze: the rays' rule lets it be), but
+  // it passes nearer to where every line was seen from than the laser's
+  // distance from its axle, which no surface the laser sees can do: every
+  // scan plane touches the cylinder of that radius about the axle, so it is
+  // their envelope (room_240 reversed: 80,427 points 4.1 cm from the
+  // laser). Given the arm, no plane of them; without it, one. The floor
+  // ahead is one plane either way.
+  const double a = 0.08;
+  const Eigen::Vector3d axle(0.0, 0.0, 1.5);
+  const Eigen::Vector3d chord_normal(std::sin(M_PI / 6.0), 0.0, std::cos(M_PI / 6.0));  // the arm at mid-sweep
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k <= 600; ++k) {
+    const double t = (0.1 * k) * M_PI / 180.0;
+    const Eigen::Vector3d o = axle + a * Eigen::Vector3d(std::sin(t), 0.0, std::cos(t));
+    lines.emplace_back();
+    if (t >= 20.0 * M_PI / 180.0) {
+      const double x = o.x() + o.z() / std::tan(t);
+      Segment3 f = seg(k, 300, {x, -0.4, 0.0}, {x, 0.4, 0.0});
+      f.origin = o;
+      f.range = (Eigen::Vector3d(x, 0.0, 0.0) - o).norm();
+      lines.back().push_back(f);
+    }
+    const Eigen::Vector3d in = o - 0.04 * chord_normal;
+    Segment3 s = seg(k, 600, in + Eigen::Vector3d(0.0, 0.1, 0.0), in + Eigen::Vector3d(0.0, 0.3, 0.0));
+    s.origin = o;
+    s.range = 0.2;
+    lines.back().push_back(s);
+  }
+  for (const double arm : {0.0, a}) {
+    SCOPED_TRACE(arm);
+    GroupingParams p;
+    p.arm = arm;
+    ScanLineGrouper g(p);
+    const auto planes = group(lines, g);
+    int floors = 0, beside = 0;
+    for (const auto& pl : planes) {
+      if (std::abs(pl.fit.normal.z()) > 0.9999 && std::abs(pl.fit.offset) < 1e-6) {
+        ++floors;
+        EXPECT_EQ(pl.segments, 401);
+      } else if (std::abs(pl.fit.normal.dot(chord_normal)) > 0.99) {
+        ++beside;
+        // Its rays do not graze it: the rays' rule is not what decides.
+        EXPECT_GT(pl.segments, 300);
+      } else {
+        ADD_FAILURE() << "a plane of " << pl.segments << " segments, normal (" << pl.fit.normal.transpose() << ")";
+      }
+    }
+    EXPECT_EQ(floors, 1);
+    EXPECT_EQ(beside, arm > 0.0 ? 0 : 1);
+  }
+}

@@ -662,3 +662,14 @@ TEST(SweepAssembler, ASweepCarriesTheGroupingParametersItsPlanesCameFrom) {
   EXPECT_DOUBLE_EQ(sweeps.front().grouping.dist_min, 0.04);
   EXPECT_DOUBLE_EQ(sweeps.back().grouping.dist_min, 0.05);
 }
+
+TEST(SweepAssembler, TheGroupingKnowsTheLasersArmFromTheChain) {
+  // HRP-4's head (urdf/hrp4_head.urdf's laser_joint): the laser 5 cm ahead of
+  // the tilt axis (y) and 6 cm above it; an offset along the axis is no arm.
+  TiltChain chain;
+  chain.joint_to_laser.translation() = Eigen::Vector3d(0.05, 0.3, 0.06);
+  SweepAssembler a(shortSweeps(), chain);
+  EXPECT_NEAR(a.groupingParams().arm, std::hypot(0.05, 0.06), 1e-12);
+  SweepAssembler on_axis(shortSweeps(), TiltChain());
+  EXPECT_EQ(on_axis.groupingParams().arm, 0.0);
+}

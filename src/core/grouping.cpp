@@ -436,6 +436,7 @@ void ScanLineGrouper::addMember(int region, int si) {
   const auto at = to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), si), si);
   to.moments += s.moments;
   to.rays += raysOf(s);
+  to.origins += originsOf(s);
   to.fit = fitPlane(to.moments);
   to.first_line = std::min(to.first_line, s.line);
   to.last_line = std::max(to.last_line, s.line);
@@ -453,6 +454,15 @@ Eigen::Matrix3d ScanLineGrouper::raysOf(const Segment3& s) {
   return s.moments.n * u * u.transpose();
 }
 
+Moments3 ScanLineGrouper::originsOf(const Segment3& s) {
+  Moments3 m;
+  if (!s.origin.allFinite()) return m;
+  m.n = s.moments.n;
+  m.s = m.n * s.origin;
+  m.ss = m.n * s.origin * s.origin.transpose();
+  return m;
+}
+
 double ScanLineGrouper::spreadAcross(const Region& r) const {
   // A plane that the rays which saw its points graze is one they cannot
   // see: the envelope of their scan planes (where the lines of a laser on an
@@ -463,6 +473,13 @@ double ScanLineGrouper::spreadAcross(const Region& r) const {
   const double with_rays = r.rays.trace();
   if (with_rays > 0.0 && r.fit.normal.dot(r.rays * r.fit.normal) < kMinRayIncidence * kMinRayIncidence * with_rays)
     return 0.0;
+  // Nearer the laser than its arm: the scan planes' common tangent (above).
+  if (p_.arm > 0.0 && r.origins.n > 0.0) {
+    const Eigen::Vector3d& n = r.fit.normal;
+    const double d = r.fit.offset;
+    const double msd = n.dot(r.origins.ss * n) / r.origins.n - 2.0 * d * n.dot(r.origins.s) / r.origins.n + d * d;
+    if (msd < p_.arm * p_.arm) return 0.0;
+  }
   if (r.across.isZero() || r.moments.n < 1.0) return r.fit.spread(1);
   // Within the plane, across the lines: the scan plane's normal projected on
   // it. Where the plane lies near the scan plane, one line's own spread
@@ -486,6 +503,7 @@ int ScanLineGrouper::newRegion(int si) {
   }
   r.moments = s.moments;
   r.rays = raysOf(s);
+  r.origins = originsOf(s);
   r.members = {si};
   r.first_line = r.last_line = s.line;
   r.lines = 1;
@@ -652,6 +670,7 @@ void ScanLineGrouper::removeMember(int region, int si) {
   r.members.erase(at);
   r.moments -= m;
   r.rays -= raysOf(segs_[si]);
+  r.origins -= originsOf(segs_[si]);
   r.fit = fitPlane(r.moments);
   r.first_line = segs_[r.members.front()].line;
   r.last_line = segs_[r.members.back()].line;
@@ -787,6 +806,7 @@ void ScanLineGrouper::absorb(int into, int from) {
   Region& b = regions_[from];
   a.moments += b.moments;
   a.rays += b.rays;
+  a.origins += b.origins;
   for (int m : b.members) seg_region_[m] = into;
   a.members.insert(a.members.end(), b.members.begin(), b.members.end());
   std::sort(a.members.begin(), a.members.end());  // segment indices grow with the line
@@ -846,6 +866,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
     Region& r = regions_[best];
     r.moments += s.moments;
     r.rays += raysOf(s);
+    r.origins += originsOf(s);
     r.members.insert(std::upper_bound(r.members.begin(), r.members.end(), idx), idx);  // sorted: lines in order
     if (l > r.last_line) ++r.lines;
     r.last_line = l;
@@ -1535,9 +1556,11 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     }
     r.moments = Moments3();
     r.rays.setZero();
+    r.origins = Moments3();
     for (int m : r.members) {
       r.moments += segs_[m].moments;
       r.rays += raysOf(segs_[m]);
+      r.origins += originsOf(segs_[m]);
     }
     r.fit = fitPlane(r.moments);
     r.first_line = segs_[r.members.front()].line;

@@ -79,21 +79,24 @@ bool JointBuffer::at(double t, double& q) const {
 namespace {
 /// The grouping of a sweep: a spinning head's half or whole turn ends in the
 /// plane it began in, its last line beside its first.
-GroupingParams sweepGrouping(const SweepParams& p) {
+GroupingParams sweepGrouping(const SweepParams& p, const TiltChain& chain) {
   GroupingParams g = p.grouping;
   g.cyclic_lines = p.spin_span > 0.0 && std::abs(std::remainder(p.spin_span, M_PI)) < 1e-6;
+  // The laser's distance from the axis it turns about.
+  const Eigen::Vector3d t = chain.joint_to_laser.translation(), a = chain.axis.normalized();
+  g.arm = (t - t.dot(a) * a).norm();
   return g;
 }
 }  // namespace
 
 SweepAssembler::SweepAssembler(const SweepParams& params, const TiltChain& chain, BasePose base_pose)
     : p_(params), chain_(chain), base_pose_(std::move(base_pose)), joints_(params.max_joint_gap),
-      grouper_(sweepGrouping(params)) {}
+      grouper_(sweepGrouping(params, chain)) {}
 
 void SweepAssembler::setParams(const SweepParams& p) {
   p_ = p;
   joints_ = JointBuffer(p.max_joint_gap);
-  grouper_.setParams(sweepGrouping(p_));
+  grouper_.setParams(sweepGrouping(p_, chain_));
 }
 
 void SweepAssembler::setGroupingParams(const GroupingParams& g) { next_grouping_ = g; }
@@ -240,7 +243,7 @@ int SweepAssembler::missingBetween(double a, double b) const {
 void SweepAssembler::beginSweep(double start) {
   if (next_grouping_) {
     p_.grouping = *next_grouping_;
-    grouper_.setParams(sweepGrouping(p_));
+    grouper_.setParams(sweepGrouping(p_, chain_));
     next_grouping_.reset();
   }
   in_sweep_ = true;

@@ -67,6 +67,12 @@ struct GroupingParams {
   /// whole turn ends in the plane it began in): planes that meet across that
   /// seam merge as planes that meet anywhere else.
   bool cyclic_lines = false;
+  /// The laser's distance from the axis it turns about [m] (0: unknown). Each
+  /// scan plane touches the cylinder of this radius about the axis, so the
+  /// points beside the laser, whatever their surface, lie near the scan
+  /// planes' common tangent: a plane that passes nearer than this to where
+  /// its lines were seen from (root mean square) fixes no normal.
+  double arm = 0.0;
   std::string validate() const;
   /// How far a segment's points may lie from its plane [m].
   double threshold(double range) const {
@@ -173,6 +179,9 @@ class ScanLineGrouper {
     /// its trace (the points with a known origin) is the mean squared sine at
     /// which they meet a plane of normal n.
     Eigen::Matrix3d rays = Eigen::Matrix3d::Zero();
+    /// Where its members were seen from: each origin weighted by its
+    /// segment's points (originsOf()).
+    Moments3 origins;
   };
   /// Whether s may join r (and a score, lowest best). `lone`: s is a segment
   /// no plane took (the late joins); beyond the tolerance of r's plane it
@@ -185,6 +194,8 @@ class ScanLineGrouper {
   double spreadAcross(const Region& r) const;
   /// A segment's share of Region::rays (zero where its origin is unknown).
   static Eigen::Matrix3d raysOf(const Segment3& s);
+  /// A segment's share of Region::origins (none where its origin is unknown).
+  static Moments3 originsOf(const Segment3& s);
   /// Whether r's lines lie far enough apart to fix its normal.
   bool planar(const Region& r) const { return r.last_line > r.first_line && spreadAcross(r) > kPlanarSpread; }
   /// Points spread this much across their lines, or more, fix a normal [m].

@@ -149,6 +149,9 @@ class SweepAssembler {
   void setParams(const SweepParams& p);
   /// Grouping settings for the sweeps to come: the sweep in progress keeps its own.
   void setGroupingParams(const GroupingParams& g);
+  /// The grouping settings of the sweep in progress, with what the chain and
+  /// the sweep's span give (GroupingParams::arm, cyclic_lines).
+  const GroupingParams& groupingParams() const { return grouper_.params(); }
 
   /// Takes a joint sample. A time or angle that is not finite is dropped
   /// (joints_bad); a time before the latest is dropped as out of order,
