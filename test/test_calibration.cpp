@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <thread>
 
@@ -99,6 +100,40 @@ TEST(Calibration, WhatTheDataCannotTellIsHeld) {
   bool said = false;
   for (const auto& n : b.notes) said |= n.find("time_offset held") != std::string::npos;
   EXPECT_TRUE(said);
+}
+
+TEST(Calibration, ATimeOffsetThatMovesNoPointIsHeldAndSaid) {
+  // A recording that holds one joint angle over each scan line (a stand that
+  // reads its servo once a scan, as the tilting-stand imports do): the angle
+  // steps between lines, where no beam was measured, so no point moves with a
+  // time offset. Its standard error is unbounded, not zero: held, and said.
+  sim::SceneEvalOptions o = options("stairs", 4, 5, sim::RigErrors());
+  std::vector<core::SweepResult> sweeps;
+  o.on_sweep = [&](const core::SweepResult& sw) { sweeps.push_back(sw); };
+  sim::evaluateScene(o);
+  ASSERT_GE(sweeps.size(), 2u);
+  core::HeadCalibrator cal(sim::HeadGeometry::load(sim::configDirectory() + "/head.yaml").chain(), {});
+  double last = -1.0, prev = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& sw : sweeps)
+    for (const auto& line : sw.lines) {
+      if (line.stamp <= last + 1e-3) continue;  // (a line two sweeps share)
+      const double q = line.tilt[line.tilt.size() / 2];
+      if (std::isfinite(prev)) cal.addJoint(line.stamp - 1e-3, prev);  // the step, between two lines' beams
+      cal.addJoint(line.stamp, q);
+      cal.addJoint(line.stamp + 0.020, q);  // held over the line's beams (18.75 ms of its 25)
+      last = line.stamp;
+      prev = q;
+    }
+  for (const auto& sw : sweeps) cal.addSweep(sw);
+  const core::CalibrationResult r = cal.solve();
+  std::printf("%s\n", core::HeadCalibrator::summary(r).c_str());
+  ASSERT_TRUE(r.ok);
+  EXPECT_FALSE(r.estimated[1]);
+  EXPECT_EQ(r.calibration.time_offset, 0.0);
+  bool said = false;
+  for (const auto& n : r.notes) said |= n.find("time_offset held: not observable") != std::string::npos;
+  EXPECT_TRUE(said);
+  EXPECT_TRUE(r.estimated[2]);  // the mount's roll still is
 }
 
 TEST(Calibration, TheEstimateAppliedBringsThePlanesBack) {

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include <Eigen/Eigenvalues>
 
@@ -322,7 +323,12 @@ Fit solveFree(const Problem& pr, HeadCalibration c, const std::array<bool, HeadC
     }
     const Eigen::MatrixXd Hi = H.ldlt().solve(Eigen::MatrixXd::Identity(m, m));
     const Eigen::MatrixXd cov = Hi * B * Hi;
-    for (int j = 0; j < m; ++j) f.se[idx[j]] = std::sqrt(std::max(0.0, cov(j, j)));
+    // A parameter that moves no point (a zero column: a recording whose joint
+    // angle is held over each scan line does that to a time offset) is not
+    // known at all: its error is unbounded, not zero.
+    for (int j = 0; j < m; ++j)
+      f.se[idx[j]] = H(j, j) > 0.0 && std::isfinite(cov(j, j)) ? std::sqrt(std::max(0.0, cov(j, j)))
+                                                               : std::numeric_limits<double>::infinity();
   }
   f.ok = true;
   return f;
@@ -462,6 +468,9 @@ CalibrationResult HeadCalibrator::solve() const {
       if (at_bound)
         std::snprintf(buf, sizeof(buf), "%s held: not fixed by this scene (the fit ran to its bound, %.1f %s)",
                       HeadCalibration::name(worst), fit.c[worst] * unit, time ? "ms" : "deg");
+      else if (!std::isfinite(fit.se[worst]))
+        std::snprintf(buf, sizeof(buf), "%s held: not observable in this recording (no point moves with it)",
+                      HeadCalibration::name(worst));
       else
         std::snprintf(buf, sizeof(buf), "%s held: not observable in this recording (standard error %.3f %s)",
                       HeadCalibration::name(worst), fit.se[worst] * unit, time ? "ms" : "deg");
