@@ -296,3 +296,26 @@ def test_a_spinning_heads_recording_grouped_each_half_turn(tmp_path):
     bad = subprocess.run([os.path.join(BIN, "group_bag"), bag, "--urdf", urdf, "--joint", "head_spin_joint",
                           "--spin-span", "7"], capture_output=True, text=True, timeout=120)
     assert bad.returncode != 0 and "spin_span" in bad.stderr, bad.stdout + bad.stderr
+
+
+def test_a_spinning_heads_recording_calibrates_with_its_span(tmp_path):
+    # The spinning head's stamps 5 ms late (make_scene_bag --time-offset-ms 5). Without --spin-span no sweep
+    # begins, and group_bag and calibrate say what to give; with it, calibrate holds the time offset (the
+    # head turns one way: a late stamp is a joint offset of 1 rad/s x 5 ms = 0.286 deg) and finds that.
+    bag = str(tmp_path / "spin.bag")
+    run(os.path.join(BIN, "make_scene_bag"), "--scene", "stairs", "--out", bag, "--duration", "10", "--spin", "1.0",
+        "--time-offset-ms", "5")
+    urdf = os.path.join(ROOT, "urdf", "hrp4_head_spin.urdf")
+    args = [bag, "--urdf", urdf, "--joint", "head_spin_joint"]
+    grouped = run(os.path.join(BIN, "group_bag"), *args)
+    assert "no sweep: the tilt never reversed" in grouped and "--spin-span" in grouped, grouped
+    bad = subprocess.run([os.path.join(BIN, "calibrate"), *args, "--out", str(tmp_path / "x.yaml")],
+                         capture_output=True, text=True, timeout=300)
+    assert bad.returncode != 0 and "never reversed" in bad.stderr and "--spin-span" in bad.stderr, bad.stderr
+    cal = subprocess.run([os.path.join(BIN, "calibrate"), *args, "--spin-span", str(math.pi), "--out",
+                          str(tmp_path / "spin.yaml")], capture_output=True, text=True, timeout=300)
+    assert cal.returncode == 0, cal.stdout + cal.stderr
+    text = cal.stdout + cal.stderr
+    assert "time_offset held: sweeps in one direction only" in text, text
+    m = re.search(r"joint_offset_deg=([-\d.]+) joint_offset_deg_se=([\d.]+)", text)
+    assert m and abs(float(m.group(1)) + 0.286) < 0.05, text

@@ -434,6 +434,16 @@ CalibrationResult HeadCalibrator::solve() const {
       res.notes.push_back("joint_offset held: no floor (a rotation about the tilt axis leaves every plane flat)");
     free[0] = false;
   }
+  // A mount rotation about the joint's own axis is a joint offset (a spinning
+  // head whose laser looks along its spin axis: its roll): folded into it.
+  const Eigen::Vector3d axis = chain_.axis.normalized();
+  const Eigen::Matrix3d mount_axes = chain_.joint_to_laser.linear();
+  for (const int k : {2, 3}) {  // roll about the laser's x, yaw about its z
+    if (!free[k] || std::abs(mount_axes.col(k == 2 ? 0 : 2).dot(axis)) < std::cos(1.0 * kDeg)) continue;
+    free[k] = false;
+    res.notes.push_back(std::string(HeadCalibration::name(k)) + " held: about the joint's own axis here, the same as " +
+                        "a joint offset: folded into joint_offset");
+  }
   const bool both = res.up_sweeps > 0 && res.up_sweeps < sweeps_;
   if (!both && free[1]) {
     res.notes.push_back("time_offset held: sweeps in one direction only (it then looks like a joint offset)");

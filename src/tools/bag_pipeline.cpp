@@ -140,7 +140,9 @@ std::string noSweepReason(const BagPipelineOptions& o, const BagPipelineResult& 
   if (c.reversals == 0)
     return "the tilt never reversed, so no sweep began (" + std::to_string(c.lines_outside_sweeps) +
            " lines outside a sweep); a recording that starts its only sweep from rest needs a lead-in "
-           "(import_tilt_bag.py writes one)";
+           "(import_tilt_bag.py writes one)" +
+           (o.sweep.spin_span > 0.0 ? std::string()
+                                    : "; a spinning head's recording needs --spin-span RAD (pi: a sweep each half turn)");
   if (c.sweeps_dropped > 0)
     return std::to_string(c.sweeps_dropped) + " sweep(s) dropped: " + r.last_warning;
   return "no sweep finished (" + std::to_string(c.lines_outside_sweeps) + " lines outside a sweep; " +

@@ -39,9 +39,12 @@ void usage() {
   std::fprintf(stderr,
                "usage: calibrate BAG [--urdf FILE] [--out FILE.yaml] [--out-urdf FILE] [--driver-params FILE]\n"
                "                 [--no-floor] [--hold NAME[,NAME]] [--passes N] [--frame F] [--joint J] [--laser L]\n"
+               "                 [--spin-span RAD]\n"
                "  NAME: joint_offset, time_offset, mount_roll, mount_yaw (held at zero, not estimated)\n"
                "  --passes 2 (default): a second pass over the recording with the first estimate applied\n"
-               "  --no-floor: the robot does not stand on a floor at z = 0 of the frame (the joint offset is then held)\n");
+               "  --no-floor: the robot does not stand on a floor at z = 0 of the frame (the joint offset is then held)\n"
+               "  --spin-span RAD: a spinning head's recording, a sweep each RAD of the joint (pi: a half turn; the\n"
+               "                   time offset is then held: turning one way, it is a joint offset at that rate)\n");
 }
 
 /// The URDF's text with the origin of the laser's own joint rotated by the mount correction.
@@ -158,8 +161,8 @@ int main(int argc, char** argv) {
       return 1;
     }
     if (!cal) {
-      std::fprintf(stderr, "calibrate: no sweep in %s (%d scans; %s)\n", o.bag.c_str(), r.scans,
-                   r.last_warning.empty() ? "no warnings" : r.last_warning.c_str());
+      std::fprintf(stderr, "calibrate: no sweep in %s (%d scans): %s\n", o.bag.c_str(), r.scans,
+                   tools::noSweepReason(o, r).c_str());
       return 1;
     }
     const core::CalibrationResult pr = cal->solve();
