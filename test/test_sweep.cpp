@@ -606,6 +606,11 @@ TEST(SweepAssembler, ASpinningJointIsUnwrappedAndCutEveryHalfTurn) {
     const std::vector<SweepResult> sweeps = runSpin(2.0, wrapped, &c);
     ASSERT_EQ(sweeps.size(), 4u) << "wrapped " << wrapped;
     EXPECT_EQ(c.reversals, 5u);
+    // The lines before the first sweep (middles before 1.42 s: 57 lines, the
+    // last of them arriving after the joint had passed pi) are in none, and
+    // none of them is taken for a line out of order.
+    EXPECT_EQ(c.lines_out_of_order, 0u);
+    EXPECT_EQ(c.lines_outside_sweeps, 57u);
     for (int k = 0; k < 4; ++k) {
       EXPECT_NEAR(sweeps[k].start, ((k + 1) * M_PI - 0.3) / 2.0, 0.006);
       EXPECT_NEAR(sweeps[k].end, ((k + 2) * M_PI - 0.3) / 2.0, 0.006);

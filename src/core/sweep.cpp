@@ -107,7 +107,7 @@ void SweepAssembler::restart() {
   reversals_.clear();
   direction_ = 0;
   have_extreme_ = false;
-  last_mid_ = last_joint_t_ = last_line_stamp_ = last_line_added_ = -1e300;
+  last_mid_ = last_joint_t_ = last_line_stamp_ = last_line_added_ = first_start_ = -1e300;
   n_intervals_ = 0;
   joint_jump_ = line_jump_ = std::numeric_limits<double>::quiet_NaN();
   in_sweep_ = false;
@@ -571,6 +571,14 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       waiting_ = Waiting::Joints;
       return false;
     }
+    if (in.stamp > last_line_stamp_ && mid < first_start_) {
+      // Before the first sweep began (its start known before this line came):
+      // in no sweep, as the lines before it.
+      last_line_stamp_ = in.stamp;
+      ++counters_.lines_outside_sweeps;
+      queue_.pop_front();
+      continue;
+    }
     if (in.stamp <= last_line_stamp_ || (in_sweep_ && mid < current_.start)) {
       // Out of order, or late for the sweep it belongs to (already finished): never mixed into the next.
       ++counters_.lines_out_of_order;
@@ -623,6 +631,7 @@ bool SweepAssembler::poll(double now, SweepResult& out) {
       return true;
     }
   } else if (!reversals_.empty() && !in_sweep_) {
+    first_start_ = reversals_.front();
     beginSweep(reversals_.front());
     reversals_.pop_front();
   }

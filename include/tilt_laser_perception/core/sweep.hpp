@@ -239,6 +239,10 @@ class SweepAssembler {
   bool in_sweep_ = false;
   SweepResult current_;
   double last_line_stamp_ = -1e300, last_line_added_ = -1e300;
+  /// Where the latest sweep that no sweep came before began (the first, or the
+  /// next after one dropped): the lines before it are in none, even those that
+  /// come after it began (joint states run ahead of the scans).
+  double first_start_ = -1e300;
   double joint_jump_ = std::numeric_limits<double>::quiet_NaN(), line_jump_ = std::numeric_limits<double>::quiet_NaN();
   std::uint32_t next_id_ = 0;
   SweepCounters counters_;
