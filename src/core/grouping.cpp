@@ -474,12 +474,7 @@ double ScanLineGrouper::spreadAcross(const Region& r) const {
   if (with_rays > 0.0 && r.fit.normal.dot(r.rays * r.fit.normal) < kMinRayIncidence * kMinRayIncidence * with_rays)
     return 0.0;
   // Nearer the laser than its arm: the scan planes' common tangent (above).
-  if (p_.arm > 0.0 && r.origins.n > 0.0) {
-    const Eigen::Vector3d& n = r.fit.normal;
-    const double d = r.fit.offset;
-    const double msd = n.dot(r.origins.ss * n) / r.origins.n - 2.0 * d * n.dot(r.origins.s) / r.origins.n + d * d;
-    if (msd < p_.arm * p_.arm) return 0.0;
-  }
+  if (p_.arm > 0.0 && r.origins.n > 0.0 && rmsAbout(r.origins, r.fit) < p_.arm) return 0.0;
   if (r.across.isZero() || r.moments.n < 1.0) return r.fit.spread(1);
   // Within the plane, across the lines: the scan plane's normal projected on
   // it. Where the plane lies near the scan plane, one line's own spread
