@@ -12,6 +12,7 @@ add_library(tlp_core
   ${TLP_ROOT}/src/core/tilt_profile.cpp
   ${TLP_ROOT}/src/core/plane.cpp
   ${TLP_ROOT}/src/core/grouping.cpp
+  ${TLP_ROOT}/src/core/surface_tests.cpp
   ${TLP_ROOT}/src/core/noise_model.cpp
   ${TLP_ROOT}/src/core/scan_order.cpp
   ${TLP_ROOT}/src/core/sweep.cpp

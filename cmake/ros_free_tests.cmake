@@ -4,7 +4,7 @@
 # NAME:LIB[,LIB...]:SOURCE[,SOURCE...] with sources in test/.
 # scripts/ci/check_test_lists.sh fails when a ROS-free test/test_*.cpp is not here.
 set(TLP_ROS_FREE_TESTS
-  "test_core:tlp_core:test_scan_split.cpp,test_grouping.cpp,test_noise_model.cpp,test_scan_order.cpp,test_sweep.cpp,test_height_map.cpp,test_organized_lines.cpp,test_input_check.cpp,test_fused_map.cpp"
+  "test_core:tlp_core:test_scan_split.cpp,test_grouping.cpp,test_surface_tests.cpp,test_noise_model.cpp,test_scan_order.cpp,test_sweep.cpp,test_height_map.cpp,test_organized_lines.cpp,test_input_check.cpp,test_fused_map.cpp"
   "test_sim:tlp_sim:test_sim.cpp"
   "test_calibration:tlp_sim:test_calibration.cpp"
   "test_protocols:tlp_scip,tlp_dynamixel:test_scip.cpp,test_dynamixel.cpp,test_time_sync.cpp"

@@ -15,8 +15,6 @@ namespace core {
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
-/// A ray meeting a plane at less than this sine of an angle grazes it.
-constexpr double kMinRayIncidence = 0.1;
 /// Two segments seed a plane only if the shorter lies beside this much of
 /// the longer at least: a short piece at a long line's end (a tread's piece
 /// under a riser's first line) tilts the plane they span, and the long line
@@ -35,17 +33,6 @@ constexpr double kMinCutVotes = 4.0;
 /// the same face (a riser), not a corner (short pieces at a box's corner
 /// span small tilted planes).
 constexpr double kMinLoneCover = 0.8;
-/// Two planes are one surface when the plane of their union fits each of
-/// them with an rms within this fraction of the distance threshold.
-constexpr double kUnionRms = 0.75;
-
-/// Rms distance of the points of m to the plane f [m].
-double rmsAbout(const Moments3& m, const PlaneFit& f) {
-  if (!(m.n > 0.0)) return 0.0;
-  const Eigen::Vector3d& n = f.normal;
-  const double e = n.dot(m.ss * n) / m.n - 2.0 * f.offset * n.dot(m.s) / m.n + f.offset * f.offset;
-  return std::sqrt(std::max(0.0, e));
-}
 
 /// Area of a polygon given in the plane (u, v) coordinates of a fit.
 double polygonArea(const std::vector<Eigen::Vector3d>& poly, const PlaneFit& f) {
@@ -187,21 +174,6 @@ bool pieceOf(const Segment3& s, const std::vector<Eigen::Vector3f>& pts, int fir
 template bool makeSegment3(const std::vector<Eigen::Vector3d>&, const std::vector<double>&, int, int, int, Segment3&);
 template bool makeSegment3(const std::vector<Eigen::Vector3f>&, const std::vector<float>&, int, int, int, Segment3&);
 
-std::string GroupingParams::validate() const {
-  std::ostringstream s;
-  if (!(dist_min > 0.0)) s << "dist_min must be > 0";
-  else if (!(dist_ratio >= 0.0)) s << "dist_ratio must be >= 0";
-  else if (!(angle_deg > 0.0 && angle_deg < 90.0)) s << "angle_deg must be in (0, 90)";
-  else if (!(merge_angle_deg > 0.0 && merge_angle_deg < 90.0)) s << "merge_angle_deg must be in (0, 90)";
-  else if (max_line_gap < 1) s << "max_line_gap must be >= 1";
-  else if (min_segments < 1) s << "min_segments must be >= 1";
-  else if (!(crease_reach >= 0.0 && crease_reach < 1.0)) s << "crease_reach must be in [0, 1)";
-  else if (!(crease_margin >= 0.0 && crease_margin < 1.0)) s << "crease_margin must be in [0, 1)";
-  else if (!(line_sigma >= 0.0 && line_sigma < 0.1)) s << "line_sigma must be in [0, 0.1) rad";
-  else if (!(significance > 0.0 && significance <= 10.0)) s << "significance must be in (0, 10]";
-  return s.str();
-}
-
 std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> ScanLineGrouper::membersIn(
     const std::vector<int>& members, int line_lo, int line_hi) const {
   // Members are segment indices in increasing order, and segments come line
@@ -211,54 +183,10 @@ std::pair<std::vector<int>::const_iterator, std::vector<int>::const_iterator> Sc
   return {lo, hi};
 }
 
-double ScanLineGrouper::lineTilt(const Region& r) const {
-  // The line term moves each of its lines by about R line_sigma, common to
-  // the line's points; over `lines` lines spread by spread(1) across them
-  // that tilts the fit by that over spread(1) sqrt(lines) (one sigma).
-  if (p_.line_sigma <= 0.0) return 0.0;
-  return p_.significance * p_.line_sigma * (r.fit.centroid - sensor_).norm() /
-         (std::max(r.fit.spread(1), 1e-9) * std::sqrt(static_cast<double>(std::max(r.lines, 1))));
-}
-
-Eigen::Matrix3d ScanLineGrouper::normalCovariance(const Region& r) const {
-  // A plane fitted to n independent measurements of sigma, spread by s_k
-  // along its in-plane axes e_k, has a normal uncertain by sigma / (s_k
-  // sqrt(n)) towards e_k. What is independent on a rig is a line (the line
-  // term moves all its points together), and lines closer to each other
-  // than one sigma across count as one (a slow sweep repeats a servo reading;
-  // no fit can tell them apart): at most 1 + width / sigma of them.
-  const double spread = r.fit.spread(1);
-  if (!(spread > 0.0) || r.lines < 2) return Eigen::Matrix3d::Identity() * kUnknownNormal;
-  const double range = (r.fit.centroid - sensor_).norm();
-  // Each line's place: the range noise (the threshold's floor is
-  // `significance` sigmas of it) and the line term, or what the plane's own
-  // points show where that is more (a surface that is not quite flat).
-  const double sigma = std::max(
-      std::hypot(std::max(p_.dist_min, p_.dist_ratio * range) / p_.significance, p_.line_sigma * range), r.fit.rms);
-  const double lines = std::min(static_cast<double>(r.lines), 1.0 + std::sqrt(12.0) * spread / sigma);
-  const Eigen::Vector3d c = r.moments.mean();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-  es.computeDirect(r.moments.ss / r.moments.n - c * c.transpose());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (int k = 1; k < 3; ++k) {
-    const Eigen::Vector3d e = es.eigenvectors().col(k);
-    cov += e * e.transpose() * (sigma * sigma / (lines * std::max(es.eigenvalues()(k), 1e-12)));
-  }
-  return cov;
-}
-
-bool ScanLineGrouper::endsOn(const Segment3& s, const Region& r) const {
-  const double tilt = lineTilt(r);
-  const double thr = kEndsOn * p_.threshold(s.range);
-  for (const Eigen::Vector3d& e : {s.start, s.end})
-    if (std::abs(r.fit.normal.dot(e) - r.fit.offset) > thr + tilt * (e - r.fit.centroid).norm()) return false;
-  return true;
-}
-
 bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b, double limit, const Region* ra,
                             const Region* rb) const {
   if (a.empty() || b.empty()) return false;
-  const bool ca = ra && confirmed(*ra), cb = rb && confirmed(*rb);
+  const bool ca = ra && tests_.confirmed(*ra), cb = rb && tests_.confirmed(*rb);
   const int gap = p_.max_line_gap + 1;
   // Two segments with a segment of either's line between them that lies
   // behind both planes: that line's rays passed where the surface would go
@@ -287,8 +215,8 @@ bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b
   for (auto i = a0; i != a1; ++i) {
     const auto [b0, b1] = membersIn(b, segs_[*i].line - gap, segs_[*i].line + gap);
     for (auto j = b0; j != b1; ++j)
-      if (near(segs_[*i], segs_[*j], limit) && ((!ca && !cb) || (ca && endsOn(segs_[*j], *ra)) ||
-                                                (cb && endsOn(segs_[*i], *rb))) &&
+      if (near(segs_[*i], segs_[*j], limit) && ((!ca && !cb) || (ca && tests_.endsOn(segs_[*j], *ra)) ||
+                                                (cb && tests_.endsOn(segs_[*i], *rb))) &&
           !seenThrough(*i, *j))
         return true;
   }
@@ -325,6 +253,7 @@ void ScanLineGrouper::indexSegments() {
 
 void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
   sensor_ = sensor;
+  tests_ = SurfaceTests(p_, sensor);
   segs_.clear();
   line_start_.clear();
   spans_.clear();
@@ -342,32 +271,7 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bo
   const auto [m0, m1] = membersIn(r, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
   for (auto it = m0; it != m1 && !neighbour; ++it) neighbour = near(segs_[*it], s, limit);
   if (!neighbour) return false;
-  if (planar(r)) {
-    const double d1 = std::abs(r.fit.normal.dot(s.start) - r.fit.offset);
-    const double d2 = std::abs(r.fit.normal.dot(s.end) - r.fit.offset);
-    const double dc = std::abs(r.fit.normal.dot(s.moments.mean()) - r.fit.offset);
-    if (!endsOn(s, r)) return false;
-    if (s.length() > 0.15 && std::abs((s.end - s.start).normalized().dot(r.fit.normal)) > std::sin(p_.angle_deg * kDeg))
-      return false;
-    const double tol = p_.centroidTolerance(s.range) + lineTilt(r) * (s.moments.mean() - r.fit.centroid).norm();
-    if (dc > tol) {
-      // Beyond the lines that fixed it a plane's place is as uncertain as its
-      // tilt (a face seen by three lines, its fourth a backlash off): a
-      // segment that no plane took fits if the plane refitted with it takes
-      // it within the tolerance, without turning by more than the merge
-      // angle, and still fits the plane's own points.
-      if (!lone) return false;
-      Moments3 m = r.moments;
-      m += s.moments;
-      const PlaneFit f = fitPlane(m);
-      if (std::abs(f.normal.dot(s.moments.mean()) - f.offset) > tol ||
-          std::abs(f.normal.dot(r.fit.normal)) < std::cos(p_.merge_angle_deg * kDeg) ||
-          rmsAbout(r.moments, f) > 0.5 * thr)
-        return false;
-    }
-    score = std::max(d1, d2) / thr;
-    return true;
-  }
+  if (tests_.planar(r)) return tests_.onPlane(r, s, lone, score);
   // A seed (a lone segment), or a strip of lines too close together to fix
   // a normal (a slow sweep, a tilt reversal): s must lie side by side with a
   // member of the lines before, and all of them on one plane.
@@ -389,104 +293,18 @@ bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bo
   return true;
 }
 
-bool ScanLineGrouper::planesAgree(const Region& a, const Region& b, double* score) const {
-  // One surface when their normals agree, each one's plane reaches the
-  // other's centroid within what its width leaves uncertain, and the plane
-  // of their union explains each of them (every part's rms about it within
-  // the tolerance). A plane fitted to a narrow strip of lines has an
-  // uncertain normal (a real rig's lines are offset from each other by
-  // encoder steps, backlash, timing: a strip of width w whose lines lie
-  // within +-thr of one surface may tilt by atan(2 thr / w)), so it is
-  // judged by its fit with the other, not by extrapolating it.
-  const double thr = p_.threshold(std::min((a.fit.centroid - sensor_).norm(), (b.fit.centroid - sensor_).norm()));
-  // Two strips of lines too close together to fix a normal fit one plane
-  // whatever they saw (the scan plane): one of them must fix it (or be a
-  // piece of one line, which joins a strip as it would join by itself).
-  if (!planar(a) && !planar(b) && a.lines > 1 && b.lines > 1) return false;
-  if (std::abs(a.fit.normal.dot(b.fit.normal)) < std::cos(p_.merge_angle_deg * kDeg)) return false;
-  // Within that, their normals must agree within both fits' uncertainty
-  // (normalCovariance): chi-square of 2 degrees of freedom, whose quantile
-  // at tail p is -2 ln p, at the significance level.
-  const Eigen::Vector3d nb = a.fit.normal.dot(b.fit.normal) < 0.0 ? Eigen::Vector3d(-b.fit.normal) : b.fit.normal;
-  const Eigen::Vector3d mid = (a.fit.normal + nb).normalized();
-  Eigen::Matrix<double, 3, 2> across;
-  across.col(0) = mid.unitOrthogonal();
-  across.col(1) = mid.cross(across.col(0));
-  const Eigen::Vector2d d = across.transpose() * (nb - a.fit.normal);
-  const Eigen::Matrix2d cov = across.transpose() * (normalCovariance(a) + normalCovariance(b)) * across;
-  if (d.dot(cov.ldlt().solve(d)) > -2.0 * std::log(std::erfc(p_.significance / std::sqrt(2.0)))) return false;
-  const auto slack = [&](const Region& r) {
-    const double width = std::sqrt(12.0) * r.fit.spread(1);  // across its lines, for points spread evenly
-    return width > 0.0 ? 2.0 * thr / width : 1e3;             // tan of the tilt it leaves uncertain
-  };
-  const double apart = (a.fit.centroid - b.fit.centroid).norm();
-  if (std::abs(a.fit.normal.dot(b.fit.centroid) - a.fit.offset) > thr + apart * slack(a)) return false;
-  if (std::abs(b.fit.normal.dot(a.fit.centroid) - b.fit.offset) > thr + apart * slack(b)) return false;
-  Moments3 m = a.moments;
-  m += b.moments;
-  const PlaneFit f = fitPlane(m);
-  const double worst = std::max(rmsAbout(a.moments, f), rmsAbout(b.moments, f));
-  if (score) *score = worst / thr;
-  return worst < kUnionRms * thr;
-}
-
 void ScanLineGrouper::addMember(int region, int si) {
   Region& to = regions_[region];
   const Segment3& s = segs_[si];
   const auto at = to.members.insert(std::upper_bound(to.members.begin(), to.members.end(), si), si);
   to.moments += s.moments;
-  to.rays += raysOf(s);
-  to.origins += originsOf(s);
+  to.rays += SurfaceTests::raysOf(s);
+  to.origins += SurfaceTests::originsOf(s);
   to.fit = fitPlane(to.moments);
   to.first_line = std::min(to.first_line, s.line);
   to.last_line = std::max(to.last_line, s.line);
   if (!lineShared(to.members, at - to.members.begin())) ++to.lines;
   seg_region_[si] = region;
-}
-
-namespace {
-constexpr double kSinNearScanPlane = 0.5;  // sin 30 degrees
-}  // namespace
-
-Eigen::Matrix3d ScanLineGrouper::raysOf(const Segment3& s) {
-  if (!s.origin.allFinite()) return Eigen::Matrix3d::Zero();
-  const Eigen::Vector3d u = (s.moments.mean() - s.origin).normalized();
-  return s.moments.n * u * u.transpose();
-}
-
-Moments3 ScanLineGrouper::originsOf(const Segment3& s) {
-  Moments3 m;
-  if (!s.origin.allFinite()) return m;
-  m.n = s.moments.n;
-  m.s = m.n * s.origin;
-  m.ss = m.n * s.origin * s.origin.transpose();
-  return m;
-}
-
-double ScanLineGrouper::spreadAcross(const Region& r) const {
-  // A plane that the rays which saw its points graze is one they cannot
-  // see: the envelope of their scan planes (where the lines of a laser on an
-  // arm meet beside it, or a nodding head's lines meet where its axis
-  // pierces a wall), which points there fit whatever their surface. Its
-  // lines fix no normal: the rays meet it at a mean squared sine under a
-  // grazing ray's. (The trace of `rays` is their points' number.)
-  const double with_rays = r.rays.trace();
-  if (with_rays > 0.0 && r.fit.normal.dot(r.rays * r.fit.normal) < kMinRayIncidence * kMinRayIncidence * with_rays)
-    return 0.0;
-  // Nearer the laser than its arm: the scan planes' common tangent (above).
-  if (p_.arm > 0.0 && r.origins.n > 0.0 && rmsAbout(r.origins, r.fit) < p_.arm) return 0.0;
-  if (r.across.isZero() || r.moments.n < 1.0) return r.fit.spread(1);
-  // Within the plane, across the lines: the scan plane's normal projected on
-  // it. Where the plane lies near the scan plane, one line's own spread
-  // within it (two pieces of a line at an angle) would pass for a spread
-  // across lines: counted less, in proportion.
-  // (|v| is the sine of the angle between the planes; the spread along v,
-  // divided by |v|, is the spread along the unit direction.)
-  const Eigen::Vector3d v = r.across - r.across.dot(r.fit.normal) * r.fit.normal;
-  const Eigen::Vector3d c = r.moments.mean();
-  const Eigen::Matrix3d cov = r.moments.ss / r.moments.n - c * c.transpose();
-  const double along = std::sqrt(std::max(0.0, v.dot(cov * v))) / std::max(v.norm(), kSinNearScanPlane);
-  return std::min(r.fit.spread(1), along);
 }
 
 int ScanLineGrouper::newRegion(int si) {
@@ -497,8 +315,8 @@ int ScanLineGrouper::newRegion(int si) {
     if (n.norm() > 1e-9) r.across = n.normalized();
   }
   r.moments = s.moments;
-  r.rays = raysOf(s);
-  r.origins = originsOf(s);
+  r.rays = SurfaceTests::raysOf(s);
+  r.origins = SurfaceTests::originsOf(s);
   r.members = {si};
   r.first_line = r.last_line = s.line;
   r.lines = 1;
@@ -643,7 +461,7 @@ void ScanLineGrouper::pairBrokenLines() {
       if (run1 == run0) ++si;  // not a piece of a run: the next
       if (run1 - run0 < 2 || covered < kMinSeedOverlap * (t.last - t.first + 1)) continue;
       const PlaneFit f = fitPlane(m);
-      if (f.rms > 0.5 * p_.threshold(t.range) || f.spread(1) <= kPlanarSpread) continue;
+      if (f.rms > 0.5 * p_.threshold(t.range) || f.spread(1) <= SurfaceTests::kPlanarSpread) continue;
       for (std::size_t k = run0; k < run1; ++k) absorb(seg_region_[ti], seg_region_[k]);
       break;
     }
@@ -664,8 +482,8 @@ void ScanLineGrouper::removeMember(int region, int si) {
   if (!lineShared(r.members, at - r.members.begin())) --r.lines;
   r.members.erase(at);
   r.moments -= m;
-  r.rays -= raysOf(segs_[si]);
-  r.origins -= originsOf(segs_[si]);
+  r.rays -= SurfaceTests::raysOf(segs_[si]);
+  r.origins -= SurfaceTests::originsOf(segs_[si]);
   r.fit = fitPlane(r.moments);
   r.first_line = segs_[r.members.front()].line;
   r.last_line = segs_[r.members.back()].line;
@@ -727,7 +545,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     };
     const bool spare = own.lines >= 3 && own.members.size() >= 4;
     const auto leaves = [&](const PlaneFit& rest) {
-      return spare && rest.spread(1) > kPlanarSpread && std::abs(rest.normal.dot(c) - rest.offset) > tol;
+      return spare && rest.spread(1) > SurfaceTests::kPlanarSpread && std::abs(rest.normal.dot(c) - rest.offset) > tol;
     };
     const auto leave = [&] {
       moved_once[si] = 1;
@@ -854,14 +672,14 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
     // A plane of three lines or more before a pair (which any parallel line
     // next to it fits), then the best score.
     std::sort(matches.begin(), matches.end(), [&](const std::pair<double, int>& a, const std::pair<double, int>& b) {
-      const bool ca = confirmed(regions_[a.second]), cb = confirmed(regions_[b.second]);
+      const bool ca = tests_.confirmed(regions_[a.second]), cb = tests_.confirmed(regions_[b.second]);
       return ca != cb ? ca : a < b;
     });
     const int best = matches[0].second;
     Region& r = regions_[best];
     r.moments += s.moments;
-    r.rays += raysOf(s);
-    r.origins += originsOf(s);
+    r.rays += SurfaceTests::raysOf(s);
+    r.origins += SurfaceTests::originsOf(s);
     r.members.insert(std::upper_bound(r.members.begin(), r.members.end(), idx), idx);  // sorted: lines in order
     if (l > r.last_line) ++r.lines;
     r.last_line = l;
@@ -870,7 +688,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
     // The segment bridges planes that agree: they are one.
     for (std::size_t k = 1; k < matches.size(); ++k) {
       const int other = matches[k].second;
-      if (!regions_[other].dead && planesAgree(regions_[best], regions_[other])) absorb(best, other);
+      if (!regions_[other].dead && tests_.planesAgree(regions_[best], regions_[other])) absorb(best, other);
     }
   }
   open_.erase(std::remove_if(open_.begin(), open_.end(),
@@ -914,7 +732,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
                       std::max(ra.last_line, rb.last_line) >= segs_.back().line - p_.max_line_gap;
     if (!lines_near && !seam) return;
     double score = 0.0;
-    if (!planesAgree(ra, rb, &score)) return;
+    if (!tests_.planesAgree(ra, rb, &score)) return;
     const double limit = p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm();
     if (!(lines_near && touch(ra.members, rb.members, limit, &ra, &rb)) &&
         !(seam && touchAcrossSeam(ra.members, rb.members, limit)))
@@ -953,7 +771,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   // either end (a run of short pieces before a plane's first line joins it
   // line by line backwards as after its last forwards).
   std::vector<char> strip_region(regions_.size(), 0);
-  for (const int ri : cand) strip_region[ri] = spreadAcross(regions_[ri]) <= kPlanarSpread;
+  for (const int ri : cand) strip_region[ri] = tests_.spreadAcross(regions_[ri]) <= SurfaceTests::kPlanarSpread;
   const auto lateJoin = [&](std::size_t si) {
     const int ri = seg_region_[si];
     const bool alive = ri >= 0 && !regions_[ri].dead;
@@ -965,7 +783,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     const Segment3& s = segs_[si];
     if (s.moments.n < 3) return;
     const int best = bestFit(s, cand, ri, 2, true);
-    if (best < 0 || (strip && !planar(regions_[best]))) return;
+    if (best < 0 || (strip && !tests_.planar(regions_[best]))) return;
     if (grouped) {
       removeMember(ri, static_cast<int>(si));
     } else if (alive) {  // a lone segment's region empties
@@ -991,11 +809,11 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
   const auto planeOf = [&](const Region& r, Plane& p) {
     p.fit = fitPlane(r.moments);
     // Its own points must fix its normal, as a region's must before a
-    // segment is judged by its plane (planar()): two lines a centimetre apart
+    // segment is judged by its plane (tests_.planar()): two lines a centimetre apart
     // fit planes tilted by tens of degrees within their noise (a tread seen
     // by two lines from a step), and a strip that many lines cross at one
     // place (room_240's table edge under the laser) is no surface.
-    if (spreadAcross(r) <= kPlanarSpread) return false;
+    if (tests_.spreadAcross(r) <= SurfaceTests::kPlanarSpread) return false;
     if (p.fit.normal.dot(sensor_ - p.fit.centroid) < 0.0) {
       p.fit.normal = -p.fit.normal;
       p.fit.offset = -p.fit.offset;
@@ -1313,7 +1131,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
         Cut best{-1, 0, 0, -1};
         int best_n = p_.min_points - 1;
         for (const Other& x : active) {
-          if (x.region == ri || s.last < x.beam_lo || s.first > x.beam_hi || !confirmed(regions_[x.region])) continue;
+          if (x.region == ri || s.last < x.beam_lo || s.first > x.beam_hi || !tests_.confirmed(regions_[x.region])) continue;
           const PlaneFit& f = regions_[x.region].fit;
           const auto on = [&](int i) { return std::abs(f.normal.dot((*lp)[i].cast<double>()) - f.offset) <= thr; };
           for (const int dir : {1, -1}) {
@@ -1478,7 +1296,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
           for (int i = lo; i <= hi; ++i)
             if (std::isfinite((*pts)[i].x())) m.add((*pts)[i].cast<double>());
           const PlaneFit h = fitPlane(m);
-          if (h.rms > 0.5 * p_.threshold(t.range) || h.spread(1) <= kPlanarSpread ||
+          if (h.rms > 0.5 * p_.threshold(t.range) || h.spread(1) <= SurfaceTests::kPlanarSpread ||
               std::abs(h.normal.dot(own.fit.normal)) > std::cos(p_.merge_angle_deg * kDeg))
             continue;
           vote(h, t.moments, lo, hi, rt, min_run);
@@ -1554,8 +1372,8 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
     r.origins = Moments3();
     for (int m : r.members) {
       r.moments += segs_[m].moments;
-      r.rays += raysOf(segs_[m]);
-      r.origins += originsOf(segs_[m]);
+      r.rays += SurfaceTests::raysOf(segs_[m]);
+      r.origins += SurfaceTests::originsOf(segs_[m]);
     }
     r.fit = fitPlane(r.moments);
     r.first_line = segs_[r.members.front()].line;
@@ -1580,7 +1398,7 @@ Eigen::Vector3d cornerOnPlane(const Eigen::Vector3d& x, const Eigen::Vector3d& o
   const double dist = f.normal.dot(x) - f.offset;
   const Eigen::Vector3d ray = x - o;
   const double along = f.normal.dot(ray);
-  if (std::isfinite(along) && std::abs(along) >= kMinRayIncidence * ray.norm()) {
+  if (std::isfinite(along) && std::abs(along) >= SurfaceTests::kMinRayIncidence * ray.norm()) {
     const double t = dist / along;  // x - t ray is on the plane
     // No farther along the ray than range noise and a mixed pixel reach
     // (on a plane seen at a grazing angle, or a wrong one, it would fly off).

@@ -83,5 +83,12 @@ PlaneFit fitPlane(const Moments3& m) {
   return f;
 }
 
+double rmsAbout(const Moments3& m, const PlaneFit& f) {
+  if (!(m.n > 0.0)) return 0.0;
+  const Eigen::Vector3d& n = f.normal;
+  const double e = n.dot(m.ss * n) / m.n - 2.0 * f.offset * n.dot(m.s) / m.n + f.offset * f.offset;
+  return std::sqrt(std::max(0.0, e));
+}
+
 }  // namespace core
 }  // namespace tilt_laser_perception

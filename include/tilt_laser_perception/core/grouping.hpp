@@ -16,74 +16,10 @@
 #include <vector>
 
 #include "tilt_laser_perception/core/plane.hpp"
+#include "tilt_laser_perception/core/surface_tests.hpp"
 
 namespace tilt_laser_perception {
 namespace core {
-
-/// A straight segment of one scan line, in 3D.
-struct Segment3 {
-  int line = 0;               ///< scan line index in the sweep
-  int first = 0, last = 0;    ///< beam indices (inclusive)
-  Eigen::Vector3d start = Eigen::Vector3d::Zero(), end = Eigen::Vector3d::Zero();  ///< end points [m]
-  Moments3 moments;           ///< of its points in 3D
-  double range = 0.0;         ///< mean range of its points [m]
-  /// Where the sensor saw it from (NaN: unknown). Range noise moves a point
-  /// along its ray, so a polygon corner is put where the ray meets the plane.
-  Eigen::Vector3d origin = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  double length() const { return (end - start).norm(); }
-};
-
-/// A segment of the points pts[first..last] (NaN points skipped) with their
-/// ranges: moments, mean range, and end points on the points' own line.
-/// False when fewer than two points are valid. For Vector3d points with
-/// double ranges, and Vector3f points with float ranges (a scan's own).
-template <class Point, class Range>
-bool makeSegment3(const std::vector<Point>& pts, const std::vector<Range>& ranges, int line, int first, int last,
-                  Segment3& out);
-
-struct GroupingParams {
-  double dist_min = 0.03;         ///< plane distance threshold floor [m]
-  double dist_ratio = 0.015;      ///< threshold growth with range [1]
-  double centroid_min = 0.012;    ///< a segment's centroid must lie this close to the plane [m] ...
-  double centroid_ratio = 0.005;  ///< ... plus this much of its range [1] (a fitted line is far less noisy than its points)
-  double angle_deg = 12.0;        ///< a segment may leave its plane by this much [deg]
-  double merge_angle_deg = 15.0;  ///< the most two planes' normals may differ by and merge, however uncertain (within it the noise model judges them, and their union must fit each); a crease cut's new plane differs by more [deg]
-  double seed_gap = 0.25;         ///< largest distance between the segments that seed a plane [m] (+ 5 % of range)
-  int beam_slack = 8;             ///< beam index slack for overlap between adjacent lines
-  int max_line_gap = 2;           ///< a plane stays open this many lines without a new segment
-  int min_segments = 2;           ///< smaller planes are dropped (a riser may be crossed by two lines only)
-  double min_area = 0.01;         ///< [m^2]
-  int min_points = 8;             ///< segments with fewer points than this are left out
-  double crease_reach = 0.08;     ///< two planes' polygons that both end this close to their common line are carried to it (closeCreases) ... [m]
-  double crease_margin = 0.005;   ///< ... up to this far from it; reach <= margin: never [m]
-  /// The noise model's line term: each scan line's own pose error (tilt
-  /// encoder, backlash, timing), common to all its points, moves a whole line
-  /// by about range * line_sigma out of its scan plane [rad, 1 sigma]; 0: the
-  /// tolerances above hold alone. A line is taken to be on a plane while it
-  /// lies within `significance` of these sigmas of it.
-  double line_sigma = 0.0;
-  double significance = 3.0;  ///< [sigmas]
-  /// The sweep's last line lies beside its first (a spinning head's half or
-  /// whole turn ends in the plane it began in): planes that meet across that
-  /// seam merge as planes that meet anywhere else.
-  bool cyclic_lines = false;
-  /// The laser's distance from the axis it turns about [m] (0: unknown). Each
-  /// scan plane touches the cylinder of this radius about the axis, so the
-  /// points beside the laser, whatever their surface, lie near the scan
-  /// planes' common tangent: a plane that passes nearer than this to where
-  /// its lines were seen from (root mean square) fixes no normal.
-  double arm = 0.0;
-  std::string validate() const;
-  /// How far a segment's points may lie from its plane [m].
-  double threshold(double range) const {
-    return std::max({dist_min, dist_ratio * range, significance * line_sigma * range});
-  }
-  /// How far a segment's centroid may lie from its plane [m]: a fitted line is far less noisy than its
-  /// points, but its pose error is its points' too.
-  double centroidTolerance(double range) const {
-    return std::max({centroid_min, centroid_ratio * range, significance * line_sigma * range});
-  }
-};
 
 /// A plane found by grouping.
 struct Plane {
@@ -135,8 +71,11 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
 
 class ScanLineGrouper {
  public:
-  explicit ScanLineGrouper(const GroupingParams& p = GroupingParams()) : p_(p) {}
-  void setParams(const GroupingParams& p) { p_ = p; }
+  explicit ScanLineGrouper(const GroupingParams& p = GroupingParams()) : p_(p), tests_(p) {}
+  void setParams(const GroupingParams& p) {
+    p_ = p;
+    tests_ = SurfaceTests(p, sensor_);
+  }
   const GroupingParams& params() const { return p_; }
 
   /// Starts a new sweep. `sensor` is where the sensor is (normals are turned towards it).
@@ -162,47 +101,15 @@ class ScanLineGrouper {
   const std::vector<int>& segmentPlane() const { return seg_plane_; }
 
  private:
-  struct Region {
-    Moments3 moments;
+  /// A plane as it grows: what it holds (SurfaceEvidence) and its members.
+  struct Region : SurfaceEvidence {
     std::vector<int> members;
-    int first_line = 0, last_line = 0;
-    int lines = 0;       // distinct scan lines among the members
-    PlaneFit fit;
-    bool dead = false;   // merged into another
-    /// The scan plane's normal at its first segment (zero: unknown). The
-    /// points of one scan line all lie in its scan plane, which they fit
-    /// whatever the surface: only their spread out of it, across the lines,
-    /// fixes the surface's normal.
-    Eigen::Vector3d across = Eigen::Vector3d::Zero();
-    /// Its members' rays: the sum over them of points x u u^T, u the unit
-    /// ray from a segment's origin to its centroid (raysOf()). n^T rays n over
-    /// its trace (the points with a known origin) is the mean squared sine at
-    /// which they meet a plane of normal n.
-    Eigen::Matrix3d rays = Eigen::Matrix3d::Zero();
-    /// Where its members were seen from: each origin weighted by its
-    /// segment's points (originsOf()).
-    Moments3 origins;
+    bool dead = false;  // merged into another
   };
   /// Whether s may join r (and a score, lowest best). `lone`: s is a segment
   /// no plane took (the late joins); beyond the tolerance of r's plane it
   /// may still join if r's plane refitted with it takes it.
   bool fits(const Region& r, const Segment3& s, double& score, bool lone = false) const;
-  /// How far r's points spread across its lines within its plane [m]
-  /// (counted less where the plane lies within 30 degrees of its first scan
-  /// plane, where one line's own spread would pass for it; none where the
-  /// rays that saw its points graze its plane).
-  double spreadAcross(const Region& r) const;
-  /// A segment's share of Region::rays (zero where its origin is unknown).
-  static Eigen::Matrix3d raysOf(const Segment3& s);
-  /// A segment's share of Region::origins (none where its origin is unknown).
-  static Moments3 originsOf(const Segment3& s);
-  /// Whether r's lines lie far enough apart to fix its normal.
-  bool planar(const Region& r) const { return r.last_line > r.first_line && spreadAcross(r) > kPlanarSpread; }
-  /// Points spread this much across their lines, or more, fix a normal [m].
-  static constexpr double kPlanarSpread = 0.02;
-  /// Three lines or more span a plane (two parallel lines fit any plane
-  /// through both), if they lie far enough apart.
-  bool confirmed(const Region& r) const { return r.lines >= 3 && planar(r); }
   /// The region `among` those of `min_lines` lines (at least two) or more (not `except`)
   /// that s fits best (`lone`: see fits()); it must overlap a member of the lines near s. -1 for none.
   int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines, bool lone = false) const;
@@ -237,22 +144,6 @@ class ScanLineGrouper {
   /// planes (its rays passed where the surface would go on).
   bool touch(const std::vector<int>& a, const std::vector<int>& b, double limit, const Region* ra = nullptr,
              const Region* rb = nullptr) const;
-  /// Whether both ends of s lie within kEndsOn thresholds of r's plane, and
-  /// beyond its centroid within what the line term leaves its tilt
-  /// uncertain (lineTilt) over the distance: a segment joins a plane only so.
-  bool endsOn(const Segment3& s, const Region& r) const;
-  /// A segment's end is one beam, as noisy as any point, where its fit is
-  /// not: it may lie 1.5 distance thresholds off (the growth's factor since
-  /// its start, set by hand, not yet from the noise model).
-  static constexpr double kEndsOn = 1.5;
-  /// The tangent of the tilt the line term leaves r's plane uncertain by
-  /// (significance sigmas; 0 without a line term).
-  double lineTilt(const Region& r) const;
-  /// The covariance of r's normal [rad^2], from the noise model: each of its
-  /// lines one measurement of the surface (see the definition).
-  Eigen::Matrix3d normalCovariance(const Region& r) const;
-  /// A normal's variance where a region fixes none (one line, no spread).
-  static constexpr double kUnknownNormal = 1e6;
   /// cyclic_lines: whether a member of `a` in the sweep's first lines and one
   /// of `b` in its last come within `limit` of each other (or the converse).
   bool touchAcrossSeam(const std::vector<int>& a, const std::vector<int>& b, double limit) const;
@@ -260,9 +151,6 @@ class ScanLineGrouper {
   int firstSegmentOf(int line) const;
   /// line_start_ and spans_ again from segs_ (after segments were cut).
   void indexSegments();
-  /// Whether a and b are one surface; `score`: the worst part's rms about
-  /// their union's plane over the distance threshold (how well it explains them).
-  bool planesAgree(const Region& a, const Region& b, double* score = nullptr) const;
   void absorb(int into, int from);
   void addMember(int region, int segment);     // keeps members sorted, refits
   void removeMember(int region, int segment);  // refits
@@ -300,6 +188,7 @@ class ScanLineGrouper {
   bool shareFinish() const { return threads_ >= 2 && segs_.size() >= kMinSegmentsToShare; }
 
   GroupingParams p_;
+  SurfaceTests tests_;  // the same-surface decisions: p_ and the sensor
   int threads_ = 1;  // setThreads()
   Eigen::Vector3d sensor_ = Eigen::Vector3d::Zero();
   std::vector<Segment3> segs_;

@@ -59,5 +59,8 @@ struct PlaneFit {
 /// Fits a plane to moments (n >= 3). The normal's sign is arbitrary.
 PlaneFit fitPlane(const Moments3& m);
 
+/// Rms distance of the points of m to the plane f [m] (0 for no points).
+double rmsAbout(const Moments3& m, const PlaneFit& f);
+
 }  // namespace core
 }  // namespace tilt_laser_perception
