@@ -120,3 +120,29 @@ TEST(SurfaceTests, TwoHalvesOfOnePlaneAgreeAndPlanesTenDegreesApartDoNot) {
   EXPECT_GE(one_agree, 0.97 * draws) << one_agree << " of " << draws;
   EXPECT_EQ(tilted_agree, 0) << tilted_agree << " of " << draws;
 }
+
+TEST(SurfaceTests, ALineOnThePlaneJoinsItAndOneEightOfItsSigmasOffDoesNot) {
+  // A plane of eight lines; a ninth line 0.1 m beyond them, on it (its own
+  // pose error drawn) or lifted by 8 line sigmas: the first must lie on the
+  // plane nearly always, the second never. (At 6 sigmas 33 of 300 join: the
+  // centroid's tolerance adds the line term's three sigmas and the plane's
+  // tilt over the distance as they are, not in quadrature, which a rig's
+  // lines need where their errors run together: added in quadrature, the
+  // sawtooth of Grouping.AFloorWhoseLinesAreOffsetFromEachOtherStaysOnePlane
+  // breaks that floor into three planes.)
+  const GroupingParams p = model();
+  const SurfaceTests tests(p);
+  std::mt19937 rng(13);
+  std::normal_distribution<double> g(0.0, 1.0);
+  const int draws = 300;
+  int on = 0, lifted_on = 0;
+  for (int d = 0; d < draws; ++d) {
+    const SurfaceEvidence e = drawSurface(rng, p, 0, 8, -0.35, 0.1, 0.0, 0.001);
+    const double x = 0.45, sigma = p.line_sigma * std::hypot(x, kHeight);
+    double score = 0.0;
+    on += tests.onPlane(e, drawLine(rng, 8, x, 0.0, sigma * g(rng), 0.001), false, score);
+    lifted_on += tests.onPlane(e, drawLine(rng, 8, x, 0.0, 8.0 * sigma, 0.001), false, score);
+  }
+  EXPECT_GE(on, 0.97 * draws) << on << " of " << draws;
+  EXPECT_EQ(lifted_on, 0) << lifted_on << " of " << draws;
+}
