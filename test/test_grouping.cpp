@@ -1205,6 +1205,36 @@ TEST(Grouping, ALoneLineDownARiserOntoTheFloorGivesItsRiserPartToTheRiser) {
   }
 }
 
+namespace {
+
+/// A nodding laser on an arm `a` from its axle (1.5 m up, along y), its
+/// lines 0.1 degrees of tilt apart over 60 degrees: the floor (z = 0) where
+/// each line's middle beam meets it, from 20 degrees on, and what lies
+/// beside the laser as `beside` makes it of the line and its origin.
+std::vector<std::vector<Segment3>> linesOfALaserOnAnArm(
+    double a, const std::function<Segment3(int, const Eigen::Vector3d&)>& beside) {
+  const Eigen::Vector3d axle(0.0, 0.0, 1.5);
+  std::vector<std::vector<Segment3>> lines;
+  for (int k = 0; k <= 600; ++k) {
+    const double t = (0.1 * k) * M_PI / 180.0;
+    const Eigen::Vector3d o = axle + a * Eigen::Vector3d(std::sin(t), 0.0, std::cos(t));
+    lines.emplace_back();
+    if (t >= 20.0 * M_PI / 180.0) {
+      const double x = o.x() + o.z() / std::tan(t);
+      Segment3 f = seg(k, 300, {x, -0.4, 0.0}, {x, 0.4, 0.0});
+      f.origin = o;
+      f.range = (Eigen::Vector3d(x, 0.0, 0.0) - o).norm();
+      lines.back().push_back(f);
+    }
+    Segment3 s = beside(k, o);
+    s.origin = o;
+    lines.back().push_back(s);
+  }
+  return lines;
+}
+
+}  // namespace
+
 TEST(Grouping, PointsBesideALaserOnAnArmAreNoPlaneTheirRaysGraze) {
   // A nodding laser on an arm a from its axle (room_240's stand: 8 cm) sees
   // what lies beside it (its beams at +-90 degrees) at its own place on the
@@ -1220,23 +1250,11 @@ TEST(Grouping, PointsBesideALaserOnAnArmAreNoPlaneTheirRaysGraze) {
   for (const double a : {0.15, 0.6}) {
     SCOPED_TRACE(a);
     const Eigen::Vector3d axle(0.0, 0.0, 1.5);
-    std::vector<std::vector<Segment3>> lines;
-    for (int k = 0; k <= 600; ++k) {
-      const double t = (0.1 * k) * M_PI / 180.0;
-      const Eigen::Vector3d o = axle + a * Eigen::Vector3d(std::sin(t), 0.0, std::cos(t));
-      lines.emplace_back();
-      if (t >= 20.0 * M_PI / 180.0) {  // the floor (z = 0) where the line's middle beam meets it
-        const double x = o.x() + o.z() / std::tan(t);
-        Segment3 f = seg(k, 300, {x, -0.4, 0.0}, {x, 0.4, 0.0});
-        f.origin = o;
-        f.range = (Eigen::Vector3d(x, 0.0, 0.0) - o).norm();
-        lines.back().push_back(f);
-      }
+    const auto lines = linesOfALaserOnAnArm(a, [](int k, const Eigen::Vector3d& o) {
       Segment3 s = seg(k, 600, o + Eigen::Vector3d(0.0, 0.3, 0.0), o + Eigen::Vector3d(0.0, 1.0, 0.0));
-      s.origin = o;
       s.range = 0.65;
-      lines.back().push_back(s);
-    }
+      return s;
+    });
     ScanLineGrouper g;
     const auto planes = group(lines, g);
     int floors = 0;
@@ -1265,26 +1283,13 @@ TEST(Grouping, APlaneNearerTheLaserThanItsArmIsNoPlane) {
   // laser). Given the arm, no plane of them; without it, one. The floor
   // ahead is one plane either way.
   const double a = 0.08;
-  const Eigen::Vector3d axle(0.0, 0.0, 1.5);
   const Eigen::Vector3d chord_normal(std::sin(M_PI / 6.0), 0.0, std::cos(M_PI / 6.0));  // the arm at mid-sweep
-  std::vector<std::vector<Segment3>> lines;
-  for (int k = 0; k <= 600; ++k) {
-    const double t = (0.1 * k) * M_PI / 180.0;
-    const Eigen::Vector3d o = axle + a * Eigen::Vector3d(std::sin(t), 0.0, std::cos(t));
-    lines.emplace_back();
-    if (t >= 20.0 * M_PI / 180.0) {
-      const double x = o.x() + o.z() / std::tan(t);
-      Segment3 f = seg(k, 300, {x, -0.4, 0.0}, {x, 0.4, 0.0});
-      f.origin = o;
-      f.range = (Eigen::Vector3d(x, 0.0, 0.0) - o).norm();
-      lines.back().push_back(f);
-    }
+  const auto lines = linesOfALaserOnAnArm(a, [&](int k, const Eigen::Vector3d& o) {
     const Eigen::Vector3d in = o - 0.04 * chord_normal;
     Segment3 s = seg(k, 600, in + Eigen::Vector3d(0.0, 0.1, 0.0), in + Eigen::Vector3d(0.0, 0.3, 0.0));
-    s.origin = o;
     s.range = 0.2;
-    lines.back().push_back(s);
-  }
+    return s;
+  });
   for (const double arm : {0.0, a}) {
     SCOPED_TRACE(arm);
     GroupingParams p;
