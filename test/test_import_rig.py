@@ -317,5 +317,8 @@ def test_a_spinning_heads_recording_calibrates_with_its_span(tmp_path):
     assert cal.returncode == 0, cal.stdout + cal.stderr
     text = cal.stdout + cal.stderr
     assert "time_offset held: sweeps in one direction only" in text, text
+    # Its laser's y axis is not the spin axis: a mount pitch is not a joint offset there, and is said so.
+    assert "mount pitch (about the tilt axis) is the same as a joint offset" not in text, text
+    assert "a mount pitch (about the laser's y axis, not the joint's axis here) is not estimated" in text, text
     m = re.search(r"joint_offset_deg=([-\d.]+) joint_offset_deg_se=([\d.]+)", text)
     assert m and abs(float(m.group(1)) + 0.286) < 0.05, text

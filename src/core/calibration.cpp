@@ -562,8 +562,16 @@ CalibrationResult HeadCalibrator::solve() const {
   res.points = fit.used;
   res.iterations = fit.iterations;
   res.ok = true;
-  if (o_.estimate[2] || o_.estimate[3] || o_.estimate[0])
-    res.notes.push_back("a mount pitch (about the tilt axis) is the same as a joint offset: folded into joint_offset");
+  // A mount pitch (about the laser's y) is a joint offset where that is the
+  // joint's axis (a nodding head); elsewhere (a spinning head, its scan plane
+  // along the axis) it tilts the scan plane off the axis, which no parameter
+  // here models.
+  if (o_.estimate[2] || o_.estimate[3] || o_.estimate[0]) {
+    if (std::abs(mount_axes.col(1).dot(axis)) >= std::cos(1.0 * kDeg))
+      res.notes.push_back("a mount pitch (about the tilt axis) is the same as a joint offset: folded into joint_offset");
+    else
+      res.notes.push_back("a mount pitch (about the laser's y axis, not the joint's axis here) is not estimated");
+  }
   return res;
 }
 
