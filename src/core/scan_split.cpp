@@ -378,10 +378,26 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
   // (a step just short of its angle, a footprint's blend of the two sides):
   // the same rule as markVeils' at the scale of a piece. Its beams are veil
   // points, and the pieces beside it meet at a depth edge, not a crease.
-  const auto alongRay = [&](const Segment& g) {
+  // A veil holds no more beams than the footprint spans (veil_max_beams),
+  // however markVeils' per-beam test and this one share them: a piece whose
+  // ranges go on, the same way, into veil beams beside it is, with them, a
+  // surface near the veil angle when they are more than that (a sloping top
+  // seen at grazing incidence, its far beams' steps past the angle, its near
+  // ones' short of it now and then by the noise).
+  const int n = static_cast<int>(r_.size());
+  const auto veilBeside = [&](int a, int b) {
+    const bool outwards = r_[b] > r_[a];
+    const auto onward = [&](int from, int to) { return outwards ? r_[to] > r_[from] : r_[to] < r_[from]; };
+    int count = 0;
+    for (int k = b + 1; k < n && !valid_[k] && r_[k] > 0.0 && onward(k - 1, k); ++k) ++count;
+    for (int k = a - 1; k >= 0 && !valid_[k] && r_[k] > 0.0 && onward(k, k + 1); --k) ++count;
+    return count;
+  };
+  const auto alongRay = [&](const Segment& g, int a, int b) {
     const Eigen::Vector2d mid = 0.5 * (g.start + g.end);
     return params_.veil_angle_deg > 0.0 && g.count <= params_.veil_max_beams && mid.norm() > 0.0 &&
-           std::abs(g.direction.dot(mid.normalized())) >= cos_veil_;
+           std::abs(g.direction.dot(mid.normalized())) >= cos_veil_ &&
+           g.count + veilBeside(a, b) <= params_.veil_max_beams;
   };
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const std::size_t first_seg = out.segments.size();
@@ -391,7 +407,7 @@ void ScanSplitter::splitRun(const Run& run, SplitResult& out) {
     if (b - a + 1 < params_.min_points) continue;
     out.segments.emplace_back();
     fitSegment(a, b, out.segments.back());
-    if (alongRay(out.segments.back())) {
+    if (alongRay(out.segments.back(), a, b)) {
       out.segments.pop_back();
       for (int k = a; k <= b; ++k) {
         out.edges.push_back(EdgePoint{k, EdgeKind::Veil, nan, Eigen::Vector2d(x_[k], y_[k])});
