@@ -187,7 +187,7 @@ bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b
                             const Region* rb) const {
   if (a.empty() || b.empty()) return false;
   const bool ca = ra && tests_.confirmed(*ra), cb = rb && tests_.confirmed(*rb);
-  const int gap = p_.max_line_gap + 1;
+  const int gap = params().max_line_gap + 1;
   // Two segments with a segment of either's line between them that lies
   // behind both planes: that line's rays passed where the surface would go
   // on (the floor seen between a box's top and a tread at its height). One
@@ -202,9 +202,9 @@ bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b
       const Eigen::Vector3d c = segs_[k].moments.mean();
       const double t = (c - ci).dot(d) / l2;
       if (t <= 0.0 || t >= 1.0) continue;
-      const double tol = p_.centroidTolerance(segs_[k].range);
+      const double tol = params().centroidTolerance(segs_[k].range);
       const auto behind = [&](const PlaneFit& f) {
-        const double side = f.normal.dot(sensor_) - f.offset >= 0.0 ? 1.0 : -1.0;
+        const double side = f.normal.dot(sensor()) - f.offset >= 0.0 ? 1.0 : -1.0;
         return side * (f.normal.dot(c) - f.offset) < -tol;
       };
       if (behind(ra->fit) && behind(rb->fit)) return true;
@@ -224,8 +224,8 @@ bool ScanLineGrouper::touch(const std::vector<int>& a, const std::vector<int>& b
 }
 
 bool ScanLineGrouper::touchAcrossSeam(const std::vector<int>& a, const std::vector<int>& b, double limit) const {
-  if (!p_.cyclic_lines || a.empty() || b.empty() || segs_.empty()) return false;
-  const int gap = p_.max_line_gap + 1, last = segs_.back().line;
+  if (!params().cyclic_lines || a.empty() || b.empty() || segs_.empty()) return false;
+  const int gap = params().max_line_gap + 1, last = segs_.back().line;
   const auto seam = [&](const std::vector<int>& first, const std::vector<int>& end) {
     const auto [f0, f1] = membersIn(first, 0, gap - 1);
     const auto [e0, e1] = membersIn(end, last - gap + 1, last);
@@ -252,8 +252,7 @@ void ScanLineGrouper::indexSegments() {
 }
 
 void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
-  sensor_ = sensor;
-  tests_ = SurfaceTests(p_, sensor);
+  tests_ = SurfaceTests(params(), sensor);
   segs_.clear();
   line_start_.clear();
   spans_.clear();
@@ -264,11 +263,11 @@ void ScanLineGrouper::reset(const Eigen::Vector3d& sensor) {
 }
 
 bool ScanLineGrouper::fits(const Region& r, const Segment3& s, double& score, bool lone) const {
-  const double thr = p_.threshold(s.range);
+  const double thr = params().threshold(s.range);
   // A neighbour: a member of the last lines is close.
-  const double limit = p_.seed_gap + 0.05 * s.range;
+  const double limit = params().seed_gap + 0.05 * s.range;
   bool neighbour = false;
-  const auto [m0, m1] = membersIn(r, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+  const auto [m0, m1] = membersIn(r, s.line - params().max_line_gap, s.line + params().max_line_gap);
   for (auto it = m0; it != m1 && !neighbour; ++it) neighbour = near(segs_[*it], s, limit);
   if (!neighbour) return false;
   if (tests_.planar(r)) return tests_.onPlane(r, s, lone, score);
@@ -332,11 +331,11 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
   for (const int rj : among) {
     const Region& o = regions_[rj];
     if (rj == except || o.dead || o.lines < std::max(2, min_lines)) continue;
-    if (s.line < o.first_line - p_.max_line_gap || s.line > o.last_line + p_.max_line_gap) continue;
+    if (s.line < o.first_line - params().max_line_gap || s.line > o.last_line + params().max_line_gap) continue;
     bool overlap = false;
-    const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+    const auto [m0, m1] = membersIn(o, s.line - params().max_line_gap, s.line + params().max_line_gap);
     for (auto mi = m0; mi != m1 && !overlap; ++mi)
-      overlap = spans_[*mi].first <= s.last + p_.beam_slack && s.first <= spans_[*mi].last + p_.beam_slack;
+      overlap = spans_[*mi].first <= s.last + params().beam_slack && s.first <= spans_[*mi].last + params().beam_slack;
     double score = 0.0;
     Segment3 probe = s;
     probe.line = std::min(s.line, o.last_line + 1);  // fits() looks at the lines before the segment's
@@ -350,7 +349,7 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
 
 bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score) const {
   const double ov = sideBySide(a, b);
-  if (ov < kMinSeedOverlap || !near(a, b, p_.seed_gap + 0.05 * b.range)) return false;
+  if (ov < kMinSeedOverlap || !near(a, b, params().seed_gap + 0.05 * b.range)) return false;
   // Across a line that saw something else beside them they lie on two
   // surfaces (a tread's piece and the riser above it), not on one that a
   // line missed.
@@ -359,12 +358,12 @@ bool ScanLineGrouper::pairs(const Segment3& a, const Segment3& b, double& score)
     auto it = std::lower_bound(segs_.begin(), segs_.end(), lo + 1,
                                [](const Segment3& t, int line) { return t.line < line; });
     for (; it != segs_.end() && it->line < hi; ++it)
-      if (it->moments.n >= p_.min_points && it->first <= b.last && b.first <= it->last) return false;
+      if (it->moments.n >= params().min_points && it->first <= b.last && b.first <= it->last) return false;
   }
   Moments3 m = a.moments;
   m += b.moments;
   const PlaneFit f = fitPlane(m);
-  const double thr = 0.5 * p_.threshold(b.range);
+  const double thr = 0.5 * params().threshold(b.range);
   if (f.rms > thr) return false;
   score = seedScore(std::abs(b.line - a.line), ov, f.rms, thr);
   return true;
@@ -411,15 +410,16 @@ void ScanLineGrouper::settlePairs() {
   for (std::size_t si = 0; si < segs_.size(); ++si) {
     const int ri = seg_region_[si];
     const Segment3& s = segs_[si];
-    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() != 1 || s.moments.n < p_.min_points) continue;
+    if (ri < 0 || regions_[ri].dead || regions_[ri].members.size() != 1 || s.moments.n < params().min_points) continue;
     int best = -1;
     double best_score = 1e300;
     for (std::size_t ti = si; ti-- > 0;) {
       const Segment3& t = segs_[ti];
       if (t.line >= s.line) continue;
-      if (t.line < s.line - p_.max_line_gap) break;
+      if (t.line < s.line - params().max_line_gap) break;
       const int rt = seg_region_[ti];
-      if (rt < 0 || regions_[rt].dead || regions_[rt].members.size() != 1 || t.moments.n < p_.min_points) continue;
+      if (rt < 0 || regions_[rt].dead || regions_[rt].members.size() != 1 || t.moments.n < params().min_points)
+        continue;
       double score = 0.0;
       if (pairs(t, s, score) && score < best_score) {
         best = rt;
@@ -437,7 +437,8 @@ void ScanLineGrouper::pairBrokenLines() {
   // but the run of lone pieces end to end in beam order does.
   const auto lone = [&](std::size_t si) {
     const int ri = seg_region_[si];
-    return ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() == 1 && segs_[si].moments.n >= p_.min_points;
+    return ri >= 0 && !regions_[ri].dead && regions_[ri].members.size() == 1 &&
+           segs_[si].moments.n >= params().min_points;
   };
   for (std::size_t ti = 0; ti < segs_.size(); ++ti) {
     if (!lone(ti)) continue;
@@ -451,8 +452,8 @@ void ScanLineGrouper::pairBrokenLines() {
       Moments3 m = t.moments;
       for (; si < segs_.size() && segs_[si].line == t.line + 1; ++si) {
         const Segment3& q = segs_[si];
-        if (!lone(si) || q.first > t.last || q.last < t.first || !near(t, q, p_.seed_gap + 0.05 * q.range) ||
-            (si > run0 && q.first > segs_[si - 1].last + p_.beam_slack))
+        if (!lone(si) || q.first > t.last || q.last < t.first || !near(t, q, params().seed_gap + 0.05 * q.range) ||
+            (si > run0 && q.first > segs_[si - 1].last + params().beam_slack))
           break;
         covered += std::min(q.last, t.last) - std::max(q.first, t.first) + 1;
         m += q.moments;
@@ -461,7 +462,7 @@ void ScanLineGrouper::pairBrokenLines() {
       if (run1 == run0) ++si;  // not a piece of a run: the next
       if (run1 - run0 < 2 || covered < kMinSeedOverlap * (t.last - t.first + 1)) continue;
       const PlaneFit f = fitPlane(m);
-      if (f.rms > 0.5 * p_.threshold(t.range) || f.spread(1) <= SurfaceTests::kPlanarSpread) continue;
+      if (f.rms > 0.5 * params().threshold(t.range) || f.spread(1) <= SurfaceTests::kPlanarSpread) continue;
       for (std::size_t k = run0; k < run1; ++k) absorb(seg_region_[ti], seg_region_[k]);
       break;
     }
@@ -527,7 +528,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     }
     if (before && after) continue;
     const Eigen::Vector3d c = s.moments.mean();
-    const double tol = p_.centroidTolerance(s.range);
+    const double tol = params().centroidTolerance(s.range);
     // Only a plane within the tolerance can take it: look before refitting its own.
     const auto reaches = [&](int rj) {
       const Region& o = regions_[rj];
@@ -572,7 +573,7 @@ bool ScanLineGrouper::moveCreaseSegments(const std::vector<int>& cand, std::vect
     // are not on two sides of it (no crease between them).
     const auto bisectorSide = [&](const PlaneFit& a, const PlaneFit& b) {
       const double cos_ab = a.normal.dot(b.normal);
-      if (std::abs(cos_ab) < std::cos(p_.merge_angle_deg * kDeg)) return 0;
+      if (std::abs(cos_ab) < std::cos(params().merge_angle_deg * kDeg)) return 0;
       const double sign = cos_ab >= 0.0 ? 1.0 : -1.0;
       const auto f = [&](const Eigen::Vector3d& x) {
         return (a.normal.dot(x) - a.offset) - sign * (b.normal.dot(x) - b.offset);
@@ -648,7 +649,7 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
   std::stable_sort(order_.begin(), order_.end(), [&](int a, int b) { return segs_[a].moments.n > segs_[b].moments.n; });
   for (const int idx : order_) {
     const Segment3& s = segs_[idx];
-    if (s.moments.n < p_.min_points) continue;  // too few points to judge: left out
+    if (s.moments.n < params().min_points) continue;  // too few points to judge: left out
     std::vector<std::pair<double, int>>& matches = matches_;
     matches.clear();
     for (int ri : open_) {
@@ -659,8 +660,8 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
       for (auto it = r.members.rbegin(); it != r.members.rend() && !overlap; ++it) {
         const Span& m = spans_[*it];
         if (m.line >= l) continue;
-        if (m.line < l - p_.max_line_gap) break;
-        overlap = m.first <= s.last + p_.beam_slack && s.first <= m.last + p_.beam_slack;
+        if (m.line < l - params().max_line_gap) break;
+        overlap = m.first <= s.last + params().beam_slack && s.first <= m.last + params().beam_slack;
       }
       double score = 0.0;
       if (overlap && fits(r, s, score)) matches.emplace_back(score, ri);
@@ -691,8 +692,9 @@ void ScanLineGrouper::addLine(const std::vector<Segment3>& line) {
       if (!regions_[other].dead && tests_.planesAgree(regions_[best], regions_[other])) absorb(best, other);
     }
   }
+  const int gap = params().max_line_gap;
   open_.erase(std::remove_if(open_.begin(), open_.end(),
-                             [&](int ri) { return regions_[ri].dead || regions_[ri].last_line < l - p_.max_line_gap; }),
+                             [&](int ri) { return regions_[ri].dead || regions_[ri].last_line < l - gap; }),
               open_.end());
 }
 
@@ -727,13 +729,14 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     const Region& ra = regions_[a];
     const Region& rb = regions_[b];
     const bool lines_near =
-        ra.first_line <= rb.last_line + p_.max_line_gap + 1 && rb.first_line <= ra.last_line + p_.max_line_gap + 1;
-    const bool seam = p_.cyclic_lines && std::min(ra.first_line, rb.first_line) <= p_.max_line_gap &&
-                      std::max(ra.last_line, rb.last_line) >= segs_.back().line - p_.max_line_gap;
+        ra.first_line <= rb.last_line + params().max_line_gap + 1 &&
+        rb.first_line <= ra.last_line + params().max_line_gap + 1;
+    const bool seam = params().cyclic_lines && std::min(ra.first_line, rb.first_line) <= params().max_line_gap &&
+                      std::max(ra.last_line, rb.last_line) >= segs_.back().line - params().max_line_gap;
     if (!lines_near && !seam) return;
     double score = 0.0;
     if (!tests_.planesAgree(ra, rb, &score)) return;
-    const double limit = p_.seed_gap + 0.05 * (ra.fit.centroid - sensor_).norm();
+    const double limit = params().seed_gap + 0.05 * (ra.fit.centroid - sensor()).norm();
     if (!(lines_near && touch(ra.members, rb.members, limit, &ra, &rb)) &&
         !(seam && touchAcrossSeam(ra.members, rb.members, limit)))
       return;
@@ -803,7 +806,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
 
   // Whether a region may make a plane at all (most are single segments).
   const auto mayBePlane = [&](const Region& r) {
-    return !r.dead && static_cast<int>(r.members.size()) >= p_.min_segments && r.last_line != r.first_line;
+    return !r.dead && static_cast<int>(r.members.size()) >= params().min_segments && r.last_line != r.first_line;
   };
   // A region's plane, false when it makes none.
   const auto planeOf = [&](const Region& r, Plane& p) {
@@ -814,7 +817,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     // by two lines from a step), and a strip that many lines cross at one
     // place (room_240's table edge under the laser) is no surface.
     if (tests_.spreadAcross(r) <= SurfaceTests::kPlanarSpread) return false;
-    if (p.fit.normal.dot(sensor_ - p.fit.centroid) < 0.0) {
+    if (p.fit.normal.dot(sensor() - p.fit.centroid) < 0.0) {
       p.fit.normal = -p.fit.normal;
       p.fit.offset = -p.fit.offset;
     }
@@ -822,7 +825,7 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     p.segments = static_cast<int>(r.members.size());
     p.points = static_cast<int>(r.moments.n);
     buildPolygon(r, p);
-    return p.area >= p_.min_area;
+    return p.area >= params().min_area;
   };
   // The planes, numbered in the regions' order; with setThreads(2) the two
   // halves of the regions on two threads.
@@ -842,7 +845,8 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     planes[k].id = static_cast<int>(k);
     for (int m : planes[k].members) seg_plane_[m] = planes[k].id;
   }
-  if (p_.crease_reach > p_.crease_margin) closeCreases(planes, p_.crease_reach, p_.crease_margin, p_.merge_angle_deg);
+  const GroupingParams& p = params();
+  if (p.crease_reach > p.crease_margin) closeCreases(planes, p.crease_reach, p.crease_margin, p.merge_angle_deg);
 }
 
 void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints& points) const {
@@ -862,7 +866,7 @@ void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints
     double own = 0.0;
     for (auto m = pa.members.begin(); m != pa.members.end() && own <= allowed; ++m) {
       const Segment3& s = segs_[*m];
-      const double tol = p_.threshold(std::max((s.start - sensor_).norm(), (s.end - sensor_).norm()));
+      const double tol = params().threshold(std::max((s.start - sensor()).norm(), (s.end - sensor()).norm()));
       const Eigen::Vector3d c = s.moments.mean();
       by_seg.clear();
       for (const Plane* b : by)
@@ -876,7 +880,7 @@ void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints
       for (int i = s.first + (*m % stride); i <= s.last; i += stride) {
         const Eigen::Vector3d q = pts[i].cast<double>();
         if (!q.allFinite()) continue;
-        const double t = p_.threshold((q - sensor_).norm());
+        const double t = params().threshold((q - sensor()).norm());
         bool theirs = false;
         for (const PlaneFit* f : by_seg) theirs = theirs || std::abs(f->normal.dot(q) - f->offset) <= t;
         own += !theirs;
@@ -889,7 +893,7 @@ void ScanLineGrouper::dropExplained(std::vector<Plane>& planes, const LinePoints
   for (std::size_t a = 0; a < n; ++a) {
     const Plane& pa = planes[a];
     if (box[a].isEmpty()) continue;
-    const double limit = p_.threshold((pa.fit.centroid - sensor_).norm());
+    const double limit = params().threshold((pa.fit.centroid - sensor()).norm());
     const int stride = std::max(1, pa.points / 256);
     const double allowed = (1.0 - kExplained) * pa.points / stride;
     // First by the bigger planes whose polygons come that near (most planes
@@ -1079,11 +1083,11 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   for (const int rj : cand) {
     const Region& o = regions_[rj];
     if (o.dead || o.lines < 2) continue;
-    Other x{rj, o.first_line - p_.max_line_gap, o.last_line + p_.max_line_gap, segs_[o.members[0]].first,
+    Other x{rj, o.first_line - params().max_line_gap, o.last_line + params().max_line_gap, segs_[o.members[0]].first,
             segs_[o.members[0]].last, others.size()};
     for (const int m : o.members) {
-      x.beam_lo = std::min(x.beam_lo, spans_[m].first - p_.beam_slack);
-      x.beam_hi = std::max(x.beam_hi, spans_[m].last + p_.beam_slack);
+      x.beam_lo = std::min(x.beam_lo, spans_[m].first - params().beam_slack);
+      x.beam_hi = std::max(x.beam_hi, spans_[m].last + params().beam_slack);
     }
     others.push_back(x);
   }
@@ -1094,7 +1098,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
   std::vector<int> lone;
   for (std::size_t i = 0; i < segs_.size(); ++i) {
     const int rt = seg_region_[i];
-    if (rt >= 0 && !regions_[rt].dead && regions_[rt].members.size() == 1 && segs_[i].moments.n >= 2 * p_.min_points)
+    if (rt >= 0 && !regions_[rt].dead && regions_[rt].members.size() == 1 && segs_[i].moments.n >= 2 * params().min_points)
       lone.push_back(static_cast<int>(i));
   }
   // The segments [s0, s1) voted on, their cuts into `out`. The planes
@@ -1123,13 +1127,13 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
         // split's threshold): the run of its beams from one end whose points
         // lie within the threshold of a confirmed plane beside it goes to that
         // plane, the rest stays alone.
-        if (s.moments.n < 2 * p_.min_points) continue;
+        if (s.moments.n < 2 * params().min_points) continue;
         const std::vector<Eigen::Vector3f>* lp = points(s.line);
         if (!lp || static_cast<int>(lp->size()) <= s.last) continue;
         reachLine(s.line);
-        const double thr = p_.threshold(s.range);
+        const double thr = params().threshold(s.range);
         Cut best{-1, 0, 0, -1};
-        int best_n = p_.min_points - 1;
+        int best_n = params().min_points - 1;
         for (const Other& x : active) {
           if (x.region == ri || s.last < x.beam_lo || s.first > x.beam_hi || !tests_.confirmed(regions_[x.region])) continue;
           const PlaneFit& f = regions_[x.region].fit;
@@ -1150,15 +1154,15 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
         Segment3 piece;
         if (best.seg >= 0 && pieceOf(s, *lp, best.first, best.last, piece) &&
             std::abs(regions_[best.to].fit.normal.dot(piece.moments.mean()) - regions_[best.to].fit.offset) <=
-                p_.centroidTolerance(s.range))
+                params().centroidTolerance(s.range))
           out.push_back(best);
         continue;
       }
-      if (s.moments.n < 2 * p_.min_points || !s.origin.allFinite()) continue;
+      if (s.moments.n < 2 * params().min_points || !s.origin.allFinite()) continue;
       const Region& own = regions_[ri];
       const std::vector<Eigen::Vector3f>* pts = nullptr;
       PlaneFit fa;  // its own plane, without it if the rest has two lines or more
-      const double thr = p_.threshold(s.range);
+      const double thr = params().threshold(s.range);
       Cut best{-1, 0, 0, -1};
       PlaneFit best_fit;
       double best_votes = kMinCutVotes - 0.5;
@@ -1188,7 +1192,7 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
         // share of its points.
         double near_n = 0.0;
         Eigen::Vector3d near_sum = Eigen::Vector3d::Zero();
-        const auto [a0, a1] = membersIn(own, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+        const auto [a0, a1] = membersIn(own, s.line - params().max_line_gap, s.line + params().max_line_gap);
         for (auto mi = a0; mi != a1; ++mi) {
           const int b0 = std::max(spans_[*mi].first, lo), b1 = std::min(spans_[*mi].last, hi);
           if (*mi == static_cast<int>(si) || b1 < b0) continue;
@@ -1198,13 +1202,13 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
           near_n += n;
           near_sum += n * (m.start + (m.end - m.start) * ((0.5 * (b0 + b1) - m.first) / span));
         }
-        if (near_n < p_.min_points) return true;
+        if (near_n < params().min_points) return true;
         const auto inFront = [&](const PlaneFit& f, const Eigen::Vector3d& x) {
           const double d = f.normal.dot(x) - f.offset;
           return f.normal.dot(s.origin) > f.offset ? d : -d;  // normal turned to the sensor
         };
         const double side = inFront(of, near_sum / near_n) + inFront(own.fit, near_other.mean());
-        const double tol = p_.centroidTolerance(s.range);
+        const double tol = params().centroidTolerance(s.range);
         if (std::abs(side) < tol) return true;
         const bool convex = side < 0.0;
         if (!loadPoints()) return false;
@@ -1258,16 +1262,16 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
         // Only beside that plane's members on the lines near (a plane goes on
         // forever; the surface does not).
         int lo = s.last + 1, hi = s.first - 1;
-        const auto [m0, m1] = membersIn(o, s.line - p_.max_line_gap, s.line + p_.max_line_gap);
+        const auto [m0, m1] = membersIn(o, s.line - params().max_line_gap, s.line + params().max_line_gap);
         for (auto mi = m0; mi != m1; ++mi) {
           const Span& m = spans_[*mi];
-          if (m.first > s.last + p_.beam_slack || s.first > m.last + p_.beam_slack) continue;
+          if (m.first > s.last + params().beam_slack || s.first > m.last + params().beam_slack) continue;
           lo = std::min(lo, m.first);
           hi = std::max(hi, m.last);
         }
         lo = std::max(lo, s.first);
         hi = std::min(hi, s.last);
-        if (hi - lo + 1 < p_.min_points) continue;
+        if (hi - lo + 1 < params().min_points) continue;
         Moments3 near_other;
         for (auto mi = m0; mi != m1; ++mi) near_other += segs_[*mi].moments;
         if (!(have_points = vote(o.fit, near_other, lo, hi, rj, kMinCutVotes))) break;
@@ -1287,17 +1291,17 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
           const int rt = seg_region_[ti];
           // On this segment's plane it would span that plane again.
           if (std::abs(own.fit.normal.dot(t.moments.mean()) - own.fit.offset) <=
-              p_.centroidTolerance(t.range))
+              params().centroidTolerance(t.range))
             continue;
           const int lo = std::max(s.first, t.first), hi = std::min(s.last, t.last);
-          const double min_run = std::max<double>(p_.min_points, kMinLoneCover * (t.last - t.first + 1));
+          const double min_run = std::max<double>(params().min_points, kMinLoneCover * (t.last - t.first + 1));
           if (hi - lo + 1 < min_run || !loadPoints()) continue;
           Moments3 m = t.moments;
           for (int i = lo; i <= hi; ++i)
             if (std::isfinite((*pts)[i].x())) m.add((*pts)[i].cast<double>());
           const PlaneFit h = fitPlane(m);
-          if (h.rms > 0.5 * p_.threshold(t.range) || h.spread(1) <= SurfaceTests::kPlanarSpread ||
-              std::abs(h.normal.dot(own.fit.normal)) > std::cos(p_.merge_angle_deg * kDeg))
+          if (h.rms > 0.5 * params().threshold(t.range) || h.spread(1) <= SurfaceTests::kPlanarSpread ||
+              std::abs(h.normal.dot(own.fit.normal)) > std::cos(params().merge_angle_deg * kDeg))
             continue;
           vote(h, t.moments, lo, hi, rt, min_run);
         }
@@ -1309,14 +1313,14 @@ void ScanLineGrouper::cutAtCreases(const std::vector<int>& cand, const LinePoint
       int rest_n = 0;
       for (int i = s.first; i <= s.last; ++i)
         rest_n += (i < best.first || i > best.last) && std::isfinite((*pts)[i].x());
-      if (rest_n < p_.min_points) {
+      if (rest_n < params().min_points) {
         best.first = s.first;
         best.last = s.last;
       }
       Segment3 piece;
       if (!pieceOf(s, *pts, best.first, best.last, piece)) continue;
       if (std::abs(best_fit.normal.dot(piece.moments.mean()) - best_fit.offset) >
-          p_.centroidTolerance(s.range))
+          params().centroidTolerance(s.range))
         continue;
       out.push_back(best);
     }
@@ -1410,7 +1414,7 @@ Eigen::Vector3d cornerOnPlane(const Eigen::Vector3d& x, const Eigen::Vector3d& o
 
 void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
   const PlaneFit& f = out.fit;
-  const auto onPlane = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& o) { return cornerOnPlane(x, o, f, p_); };
+  const auto onPlane = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& o) { return cornerOnPlane(x, o, f, params()); };
   // Members are segment indices in increasing order: line by line, each
   // line's in beam order; lineEnd(k) is where the line of members[k] ends.
   const std::vector<int>& mem = r.members;
@@ -1450,7 +1454,7 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
       int chain = -1;
       for (int c : open_chains) {
         const Gap& prev = chains[c].back();
-        if (prev.line >= line - p_.max_line_gap && prev.first <= g.last && g.first <= prev.last) {
+        if (prev.line >= line - params().max_line_gap && prev.first <= g.last && g.first <= prev.last) {
           chain = c;
           break;
         }
@@ -1464,7 +1468,7 @@ void ScanLineGrouper::buildPolygon(const Region& r, Plane& out) const {
     }
     for (int c : open_chains)
       if (std::find(next_open.begin(), next_open.end(), c) == next_open.end() &&
-          chains[c].back().line >= line - p_.max_line_gap)
+          chains[c].back().line >= line - params().max_line_gap)
         next_open.push_back(c);
     std::swap(open_chains, next_open);
     k = e;

@@ -71,12 +71,9 @@ void closeCreases(std::vector<Plane>& planes, double reach, double margin, doubl
 
 class ScanLineGrouper {
  public:
-  explicit ScanLineGrouper(const GroupingParams& p = GroupingParams()) : p_(p), tests_(p) {}
-  void setParams(const GroupingParams& p) {
-    p_ = p;
-    tests_ = SurfaceTests(p, sensor_);
-  }
-  const GroupingParams& params() const { return p_; }
+  explicit ScanLineGrouper(const GroupingParams& p = GroupingParams()) : tests_(p) {}
+  void setParams(const GroupingParams& p) { tests_ = SurfaceTests(p, tests_.sensor()); }
+  const GroupingParams& params() const { return tests_.params(); }
 
   /// Starts a new sweep. `sensor` is where the sensor is (normals are turned towards it).
   void reset(const Eigen::Vector3d& sensor = Eigen::Vector3d::Zero());
@@ -187,10 +184,9 @@ class ScanLineGrouper {
   /// Whether finish() shares its work with a second thread (setThreads()).
   bool shareFinish() const { return threads_ >= 2 && segs_.size() >= kMinSegmentsToShare; }
 
-  GroupingParams p_;
-  SurfaceTests tests_;  // the same-surface decisions: p_ and the sensor
+  SurfaceTests tests_;  // the same-surface decisions, and the parameters and sensor they hold
+  const Eigen::Vector3d& sensor() const { return tests_.sensor(); }
   int threads_ = 1;  // setThreads()
-  Eigen::Vector3d sensor_ = Eigen::Vector3d::Zero();
   std::vector<Segment3> segs_;
   std::vector<int> line_start_;  // per line: the index of its first segment (or of the next line's)
   /// Each segment's line and beams, apart from the rest: the loops that walk

@@ -121,6 +121,8 @@ class SurfaceTests {
   explicit SurfaceTests(const GroupingParams& p = GroupingParams(),
                         const Eigen::Vector3d& sensor = Eigen::Vector3d::Zero())
       : p_(p), sensor_(sensor) {}
+  const GroupingParams& params() const { return p_; }
+  const Eigen::Vector3d& sensor() const { return sensor_; }
 
   /// How far r's points spread across its lines within its plane [m]
   /// (counted less where the plane lies within 30 degrees of its first scan
