@@ -5,10 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <queue>
-#include <sstream>
 #include <tuple>
-
-#include <Eigen/Eigenvalues>
 
 namespace tilt_laser_perception {
 namespace core {
