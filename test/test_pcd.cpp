@@ -158,6 +158,7 @@ TEST(Hoover, EachCategoryCountedOnce) {
   ASSERT_EQ(h.correct_pairs.size(), 1u);
   EXPECT_EQ(h.correct_pairs[0], std::make_pair(100, 0));
   EXPECT_EQ(h.missed_truth, std::vector<int>{4});
+  EXPECT_EQ(h.noise_found, std::vector<int>{104});
   // Region 0 found with 3 of its points elsewhere: 7/10 < 80 %, missed at 0.8, correct at 0.7.
   for (int k = 0; k < 3; ++k) found[k] = 104;
   EXPECT_EQ(hooverScore(RegionOverlap::of(truth, found), 0.8, [](int) { return true; }).correct, 0);

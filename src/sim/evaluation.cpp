@@ -110,6 +110,7 @@ HooverScore hooverScore(const RegionOverlap& o, double T, const std::function<bo
       }
     if (best_t >= 0 && !wanted.count(best_t) && best >= T * nd) continue;
     ++h.noise;
+    h.noise_found.push_back(d);
   }
   return h;
 }

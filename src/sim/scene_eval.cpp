@@ -372,6 +372,21 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   const auto& face_count = ov.truth_count;
   const auto& plane_count = ov.found_count;
   const auto& overlap = ov.overlap;
+  for (int d : h.noise_found) {
+    // What it holds: "plane P (N points: object/label:count ..., none:count), lines A-B".
+    std::string what = "plane " + std::to_string(d) + " (" + std::to_string(plane_count.at(d)) + " points:";
+    for (const auto& [key, n] : overlap)
+      if (key.first == d)
+        what += " " + (key.second >= 0 ? scene.faces[key.second].object + "/" + scene.faces[key.second].label
+                                       : std::string("none")) + ":" + std::to_string(n);
+    int lo = -1, hi = -1;
+    for (std::size_t si = 0; si < sw.segments.size() && !o.segmenter; ++si)
+      if (sw.segment_plane[si] == d) {
+        lo = lo < 0 ? sw.segments[si].line : std::min(lo, sw.segments[si].line);
+        hi = std::max(hi, sw.segments[si].line);
+      }
+    e.noise_planes.push_back(what + ")" + (lo >= 0 ? ", lines " + std::to_string(lo) + "-" + std::to_string(hi) : ""));
+  }
   for (int f : h.missed_truth) {
     // Where its points went: "object/label (N points: plane:count ..., none:count)".
     std::string where = scene.faces[f].object + "/" + scene.faces[f].label + " (" +

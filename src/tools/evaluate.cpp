@@ -25,7 +25,8 @@ static void usage() {
                "  --reverse   each sweep's lines grouped in the other order (last first): the planes should not depend on it\n"
                "  --line-sigma-deg D  the grouping's line term (each line's own pose error; default 0)\n"
                "  --fixed D   fixed split threshold D [m] instead of the adaptive one\n"
-               "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them\n"
+               "  --verbose   list the faces each sweep missed, and the segments on them or in the planes that took them,\n"
+               "              and the planes counted as noise (what they hold, their lines)\n"
                "  --dump P    write the last sweep's planes and height map to P_planes.csv, P_heightmap.{bin,txt}\n"
                "  --calibration FILE  apply calibrate's estimate (joint offset, time offset, mount) to the believed head\n"
                "  --errors-known      apply the rig errors' own values instead (what a perfect calibration gives)\n"
@@ -108,6 +109,7 @@ int main(int argc, char** argv) {
       if (verbose) {
         for (const auto& f : evals[i].missed_faces) std::fprintf(stderr, "sweep %zu missed %s\n", i, f.c_str());
         for (const auto& s : evals[i].missed_segments) std::fprintf(stderr, "  %s\n", s.c_str());
+        for (const auto& n : evals[i].noise_planes) std::fprintf(stderr, "sweep %zu noise %s\n", i, n.c_str());
       }
     }
     std::printf("%s\n", sim::evalSummary(evals).c_str());

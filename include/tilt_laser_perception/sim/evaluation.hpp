@@ -52,6 +52,7 @@ struct HooverScore {
   int correct = 0, over = 0, under = 0, missed = 0, noise = 0;
   std::vector<std::pair<int, int>> correct_pairs;  ///< (found, truth)
   std::vector<int> missed_truth;                   ///< expected true regions missed
+  std::vector<int> noise_found;                    ///< found regions counted as noise
 };
 
 /// Correct: a pair sharing at least T of both regions; over-segmented: a

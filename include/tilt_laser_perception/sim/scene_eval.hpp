@@ -128,6 +128,8 @@ struct SweepEval {
   /// For each missed face, the segments on it or in a plane that took its
   /// points: "line L beams A-B (N points, mostly FACE) -> plane P".
   std::vector<std::string> missed_segments;
+  /// The planes counted as noise: "plane P (N points: object/label:count ..., none:count), lines A-B".
+  std::vector<std::string> noise_planes;
 };
 
 /// Simulates `sweeps` sweeps (after the first reversal) and judges each.
