@@ -197,16 +197,16 @@ def test_room_240_imports_and_groups(tmp_path):
     assert int(f.group(2)) > 5000 and float(f.group(3)) >= 80.0, grouped
     assert abs(int(f.group(4)) - 90) <= 2 and abs(float(f.group(5)) - 1.13) < 0.03, grouped
     assert int(f.group(6)) > 90000 and float(f.group(7)) >= 80.0, grouped
-    # The lines in the other order: the wall 56 % in one plane, its part beside
-    # the stand (x < 0.2 m) a plane of its own 6 degrees off it, and the
-    # envelope beside the laser holding some of it (the order still matters
-    # here: issue 38; 60.5 % before the grazing-rays test, which made
-    # first_scan's sweep 1 wall 61.6 -> 83.7 % reversed).
+    # The lines in the other order: the wall as whole within 3 % (87.3 against
+    # 84.5 %). It was 56 % in one plane until the split kept a run's step onto
+    # a surface a few centimetres behind out of one segment (its pieces' own
+    # lines compared: doc/notes/split.md), 60.5 % before the grazing-rays test.
     rev = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--floor-z", "0.10", "--reverse")
     r = re.search(r"floor at z=[-\d.]+ m: \d+ points, ([\d.]+) % in plane .* largest wall \(normal (\d+) deg, "
                   r"([-\d.]+) m\): (\d+) points, ([\d.]+) % in plane", rev)
     assert r and float(r.group(1)) >= 80.0 and abs(float(r.group(3)) - 1.13) < 0.03, rev
-    assert int(r.group(4)) == int(f.group(6)) and float(r.group(5)) >= 55.0, rev
+    assert int(r.group(4)) == int(f.group(6)) and float(r.group(5)) >= 80.0, rev
+    assert abs(float(r.group(5)) - float(f.group(7))) <= 3.0, (grouped, rev)
 
 
 @pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "cardboard_box.bag")),
@@ -258,7 +258,9 @@ def test_first_scan_holds_its_table_top_and_wall_whichever_way_the_lines_come(tm
     # 1 % with the lines reversed. The wall is two surfaces 3 cm apart; its
     # largest plane holds 47 % of its points forward (a strip fitted 17
     # degrees off it holds 15,000: the judge counted them out until the
-    # thirteenth session and said 87 %) and 75 % reversed.
+    # thirteenth session and said 87 %) and 75 % reversed (48.5 and 65.6 %
+    # since the split compares a run's pieces' own lines, whose sweep 1 went
+    # 50.7 -> 84.6 % forward and 83.7 -> 58.3 % reversed).
     out = str(tmp_path / "first_scan_tlp.bag")
     run(sys.executable, IMPORT, os.path.join(SHARED, "first_scan.bag"), out)
     shares = {}

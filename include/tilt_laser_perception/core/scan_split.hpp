@@ -210,6 +210,9 @@ class ScanSplitter {
   void fitSegment(int first, int last, Segment& seg) const;
   Moments2 rangeMoments(int first, int last) const;
   bool withinTolerance(int first, int last) const;
+  /// Whether the pieces [first, split] and [split + 1, last] lie on one line
+  /// within their fits' noise: the shorter one's mean on the longer one's line.
+  bool piecesMeet(int first, int split, int last) const;
   bool mergeable(int first, int split, int last) const;  // pieces [first, split] and [split + 1, last]
   double lineDistance(int first, int last, int i) const;
   static Eigen::Vector2d creasePoint(const Segment& p, const Segment& q);  // point i to the line fitted to [first, last]
