@@ -63,6 +63,21 @@ TEST(Scene, ParsesObjectsIntoFaces) {
   EXPECT_NEAR(t2.area(), 0.30 * 1.2, 1e-12);
 }
 
+TEST(Scene, ASlopingBlocksFrontIsOneFaceUpToItsHighEdge) {
+  // cinder_blocks' block3R: a box 0.45 m high at x 1.66-2.06 m whose top
+  // slopes down from 0.55 m at its front; the front above the box (0.45-0.55
+  // m) is the same plane and the same true face as the box's front below it.
+  const Scene s = sim::loadScene("cinder_blocks");
+  sim::Hit low, high;
+  const Eigen::Vector3d x(1, 0, 0);
+  ASSERT_TRUE(s.raycast(Eigen::Vector3d(0, -0.2, 0.40), x, 10.0, low));
+  ASSERT_TRUE(s.raycast(Eigen::Vector3d(0, -0.2, 0.50), x, 10.0, high));
+  EXPECT_NEAR(low.t, 1.66, 1e-9);
+  EXPECT_NEAR(high.t, 1.66, 1e-9);
+  EXPECT_EQ(s.faces[low.face].object + "/" + s.faces[low.face].label, "block3R/front");
+  EXPECT_EQ(high.face, low.face);
+}
+
 TEST(Scene, AWedgesTriangularSideIsPartOfItsBoxsSide) {
   // A box 0.3 m high with a top rising along +y to 0.4 m: its front (x = 1)
   // closed up to the top by a triangle that is part of the box's front.
