@@ -259,8 +259,8 @@ def test_first_scan_holds_its_table_top_and_wall_whichever_way_the_lines_come(tm
     # largest plane holds 47 % of its points forward (a strip fitted 17
     # degrees off it holds 15,000: the judge counted them out until the
     # thirteenth session and said 87 %) and 75 % reversed (48.5 and 65.6 %
-    # since the split compares a run's pieces' own lines, whose sweep 1 went
-    # 50.7 -> 84.6 % forward and 83.7 -> 58.3 % reversed).
+    # since the split compares a run's pieces' own lines; sweep 1's went 50.7
+    # -> 84.6 % forward, and reversed another wall is judged the largest).
     out = str(tmp_path / "first_scan_tlp.bag")
     run(sys.executable, IMPORT, os.path.join(SHARED, "first_scan.bag"), out)
     shares = {}

@@ -188,7 +188,9 @@ TEST(Split, ASurfaceAFewCentimetresBehindAnotherIsASegmentOfItsOwn) {
   // short of the depth jump threshold (14 cm there), and a line through all
   // 24 points passes within d_T (3 cm) of each, so the chord's split at the
   // step used to be merged back; the shorter piece's points lie 4 cm off the
-  // longer one's line, beyond what the two fits leave uncertain (2.4 cm).
+  // longer one's line, beyond what the two fits leave uncertain (about 2.3
+  // cm: 3 cm x sqrt(1/16 + 12^2/340 + 1/8), the pieces' centroids 12 beams
+  // apart).
   const Eigen::Vector2d n(std::cos(50.0 * kDeg), std::sin(50.0 * kDeg));
   const double p = 1.85 * n.x();  // the first front through (1.85, 0)
   const auto hit = [&](double offset, double deg) {  // where beam angle deg meets n.x = p + offset
@@ -216,10 +218,9 @@ TEST(Split, ASurfaceAFewCentimetresBehindAnotherIsASegmentOfItsOwn) {
 TEST(Split, PiecesOfANoisyWallAreMergedWhateverTheirNoise) {
   // The other side of the test above: a wall 2 m away, seen at 50 degrees,
   // with range noise of d_T / 3 (the split's own significance level). The
-  // chord's test splits it on noisy points and the
-  // merge takes most back: one segment in 153 of 200 before the pieces' own
-  // lines were compared, 149 since, 107 with that comparison at half its
-  // sigmas.
+  // chord's test splits it on noisy points and the merge takes most back:
+  // one segment in 153 of 200 scans before the pieces' own lines were
+  // compared, 149 since, 107 with that comparison at half its sigmas.
   const Eigen::Vector2d n(std::cos(50.0 * kDeg), std::sin(50.0 * kDeg));
   const Eigen::Vector2d along(-n.y(), n.x());
   const Eigen::Vector2d at = 2.0 * n;
