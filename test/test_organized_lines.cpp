@@ -43,6 +43,56 @@ struct FloorWallImage {
 };
 }  // namespace
 
+namespace {
+/// A scan line in 3D (the plane z = 0, seen from the origin, beams 0.25
+/// degrees apart from -20 degrees): where each beam meets the line n.x = p
+/// (`offset` further beyond beam `step`), with Gaussian range noise `sigma`.
+std::vector<Eigen::Vector3f> lineOfTwoFronts(int beams, int step, double offset, double sigma, std::mt19937_64& rng) {
+  const double deg = M_PI / 180.0;
+  const Eigen::Vector2d n(std::cos(50.0 * deg), std::sin(50.0 * deg));
+  const double p = 1.85 * n.x();
+  std::normal_distribution<double> noise(0.0, sigma);
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < beams; ++i) {
+    const double a = (-20.0 + 0.25 * i) * deg;
+    const Eigen::Vector2d u(std::cos(a), std::sin(a));
+    const double r = (p + (i >= step ? offset : 0.0)) / u.dot(n) + (sigma > 0.0 ? noise(rng) : 0.0);
+    pts.emplace_back(static_cast<float>(r * u.x()), static_cast<float>(r * u.y()), 0.0f);
+  }
+  return pts;
+}
+}  // namespace
+
+// The split of a cloud's lines merges its pieces again as the 2D split does
+// (test_scan_split.cpp's two tests of the merge): a noisy straight line the
+// chord's test cut on noisy points is mostly one segment again, and a line
+// that steps onto a surface 4 cm behind the first is two, though one line
+// passes within d_T of all of their points.
+TEST(PolylineSplit, PiecesAreMergedAgainUnlessTheyStepOntoAnotherSurface) {
+  std::mt19937_64 rng(7);
+  SplitParams merged, apart;
+  apart.merge = false;
+  int whole_merged = 0, whole_apart = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const std::vector<Eigen::Vector3f> pts = lineOfTwoFronts(120, 1000, 0.0, 0.015, rng);
+    std::vector<Segment3> a, b;
+    splitPolyline(pts, Eigen::Vector3d::Zero(), merged, 0, a);
+    splitPolyline(pts, Eigen::Vector3d::Zero(), apart, 0, b);
+    whole_merged += a.size() == 1u;
+    whole_apart += b.size() == 1u;
+  }
+  // Range noise half again the split's model (d_T / 2): one segment in 162
+  // of 200 lines merged, 94 without the merge.
+  EXPECT_GE(whole_merged, 150);
+  EXPECT_LE(whole_apart, 110);
+  const std::vector<Eigen::Vector3f> two = lineOfTwoFronts(24, 16, 0.04, 0.0, rng);
+  std::vector<Segment3> segs;
+  splitPolyline(two, Eigen::Vector3d::Zero(), merged, 0, segs);
+  ASSERT_EQ(segs.size(), 2u);
+  EXPECT_EQ(segs[0].last, 15);
+  EXPECT_EQ(segs[1].first, 16);
+}
+
 // The lines grouped no closer than a spacing: every k-th of an image whose
 // rows are 0.1 degrees apart; every line when they are farther apart or the
 // spacing is 0.

@@ -197,7 +197,13 @@ TEST(Pcd, SynPebTestCloudThroughSegmentCloud) {
                          planes, labels);
   const HooverScore h = hooverScore(RegionOverlap::ofPlaneLabels(c.truth, labels, c.points), 0.8, [](int) { return true; });
   EXPECT_EQ(h.expected, 13);
-  EXPECT_GE(h.correct, 6);  // the figure on the day the cloud was added (PCL's: 3)
+  // With tolerances of 30 times the cloud's noise (the head's defaults) faces
+  // that meet at 24 degrees share planes: 6 correct on the day the cloud was
+  // added (PCL's: 3), 5 since the split of organized clouds merges its pieces
+  // again as the 2D split does (the merge's d_T, 3 cm, takes pieces across
+  // those creases); with the cloud's own noise below, 9 (segment_cloud's
+  // defaults, which also space its lines: 9 -> 10, test_segment_cloud.py).
+  EXPECT_GE(h.correct, 5);
   EXPECT_LE(h.noise, 2);
   // segment_cloud --noise auto: the cloud's own noise is about 1 mm, and
   // tolerances of 6 sigma part the faces that meet at 24 degrees.

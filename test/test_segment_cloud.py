@@ -125,9 +125,9 @@ def surface_shares(out):
 
 def test_synpeb_by_its_own_noise_with_the_defaults():
     # SynPEB's test_100 (../shared/data/synpeb): about 1 mm of range noise. By
-    # default segment_cloud measures it and judges the cloud by it (9 of 13
+    # default segment_cloud measures it and judges the cloud by it (10 of 13
     # planes correct, noise 0); with this head's tolerances (--noise off) faces
-    # that meet at 24 degrees share planes (4, noise 2).
+    # that meet at 24 degrees share planes (4 correct, 3 planes of two faces).
     cloud = os.path.join(SHARED, "synpeb", "test_100.pcd")
     if not os.path.exists(cloud):
         import pytest
@@ -140,7 +140,9 @@ def test_synpeb_by_its_own_noise_with_the_defaults():
         assert m, r.stdout
         found[name] = tuple(int(g) for g in m.groups())
     assert "range noise 1.1 mm (estimated)" in run("segment_cloud", cloud).stdout
-    assert found["defaults"][0] == 13 and found["defaults"][1] >= 9 and found["defaults"][2] <= 1, found
+    # 10 of 13 since the split of organized clouds merges its pieces again as
+    # the 2D split does (9 before).
+    assert found["defaults"][0] == 13 and found["defaults"][1] >= 10 and found["defaults"][2] <= 1, found
     assert found["off"][1] <= 7, found
 
 
@@ -173,6 +175,13 @@ def test_the_nodding_sick_scans_ceiling_with_the_line_term():
     # The floor 65 % in its largest plane either way (62 % one way before the
     # merge judged again the planes that the late joins brought together).
     assert est["floor"][0] > 65.0 and rev["floor"][0] > 65.0, outs["estimated"] + outs["reversed"]
+    # 80 % of the ceiling in 3 planes and of the floor in 4, either way, since
+    # the split of organized clouds merges its pieces again as the 2D split
+    # does (7 and 5 planes before, 80 % never reached on the ceiling reversed;
+    # the issue asks 2).
+    for shares, out in ((est, outs["estimated"]), (rev, outs["reversed"])):
+        assert shares["ceiling"][2] != "never" and int(shares["ceiling"][2]) <= 3, out
+        assert shares["floor"][2] != "never" and int(shares["floor"][2]) <= 4, out
 
 
 def test_a_spinning_lasers_flat_cloud_in_scan_order(tmp_path):

@@ -9,6 +9,8 @@
 #include <limits>
 #include <thread>
 
+#include <Eigen/Eigenvalues>
+
 namespace tilt_laser_perception {
 namespace core {
 
@@ -21,6 +23,67 @@ struct SplitWork {
   std::vector<float> r;  // ranges; NaN: no return
   std::vector<std::pair<int, int>> stack, pieces;
 };
+}  // namespace
+
+namespace {
+/// The moments of the run's points [a, b] relative to the origin (NaN skipped).
+Moments3 runMoments(const SplitWork& w, int a, int b) {
+  Moments3 m;
+  for (int i = a; i <= b; ++i)
+    if (std::isfinite(w.r[i])) m.add(Eigen::Vector3d(w.x[i], w.y[i], w.z[i]));
+  return m;
+}
+
+/// A line through the moments' points: centroid, unit direction and the
+/// points' sum of squares along it.
+void lineThrough(const Moments3& m, Eigen::Vector3d& c, Eigen::Vector3d& d, double& along) {
+  c = m.mean();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(m.ss - m.n * c * c.transpose());
+  d = es.eigenvectors().col(2);
+  along = es.eigenvalues()(2);
+}
+
+/// Neighbouring pieces merged again as the 2D split merges them
+/// (ScanSplitter::mergeable, piecesMeet): their union within d_T of its
+/// least-squares line, the second not folding back over the first along it,
+/// and the shorter one's mean on the longer one's line within what the two
+/// fits leave uncertain.
+void mergePieces(SplitWork& w, const SplitParams& p) {
+  if (w.pieces.size() < 2) return;
+  const auto point = [&](int i) { return Eigen::Vector3d(w.x[i], w.y[i], w.z[i]); };
+  const auto mergeable = [&](int a, int split, int b) {
+    const Moments3 mu = runMoments(w, a, b);
+    if (mu.n < 2.0) return true;
+    Eigen::Vector3d c, d;
+    double along = 0.0;
+    lineThrough(mu, c, d, along);
+    if (d.dot(point(b) - point(a)) < 0.0) d = -d;
+    double reach = -std::numeric_limits<double>::infinity();
+    for (int i = a; i <= b; ++i) {
+      if (!std::isfinite(w.r[i])) continue;
+      const Eigen::Vector3d q = point(i) - c;
+      if ((q - d * d.dot(q)).norm() > p.threshold(w.r[i])) return false;
+      if (i <= split) reach = std::max(reach, d.dot(point(i)));
+      else if (reach - d.dot(point(i)) > p.threshold(w.r[i])) return false;
+    }
+    Moments3 ml = runMoments(w, a, split), ms = runMoments(w, split + 1, b);
+    if (ml.n < 3.0 || ms.n < 3.0) return true;
+    if (ms.n > ml.n) std::swap(ml, ms);
+    lineThrough(ml, c, d, along);
+    if (!(along > 0.0)) return true;
+    const Eigen::Vector3d q = ms.mean() - c;
+    const double t = d.dot(q);
+    const double var = 1.0 / ml.n + t * t / along + 1.0 / ms.n;
+    return (q - d * t).norm() <= p.threshold(ms.mean().norm()) * std::sqrt(var);
+  };
+  std::size_t k = 0;
+  for (std::size_t i = 1; i < w.pieces.size(); ++i) {
+    if (mergeable(w.pieces[k].first, w.pieces[k].second, w.pieces[i].second)) w.pieces[k].second = w.pieces[i].second;
+    else w.pieces[++k] = w.pieces[i];
+  }
+  w.pieces.resize(k + 1);
+}
 }  // namespace
 
 void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3d& origin, const SplitParams& p,
@@ -91,6 +154,7 @@ void splitPolyline(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3
           w.pieces.emplace_back(a, b);
         }
       }
+      if (p.merge) mergePieces(w, p);
       for (const auto& [a, b] : w.pieces) emit(a, b);
       start = -1;
     }

@@ -19,7 +19,10 @@ namespace core {
 /// Splits one line of 3D points (NaN: no return) seen from `origin` into
 /// straight segments: breaks at invalid points and depth jumps, then the
 /// farthest-point split against d_T = max(d_min, zeta * R) (SplitParams, the
-/// same as for 2D scans), keeping pieces of at least min_points points.
+/// same as for 2D scans), neighbouring pieces merged again as the 2D split
+/// merges them (SplitParams::merge: the union within d_T of its line, the
+/// shorter piece on the longer one's line within their fits' noise), keeping
+/// pieces of at least min_points points.
 /// Appends Segment3 with `line` set to `line`.
 void splitPolyline(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin,
                    const SplitParams& params, int line, std::vector<Segment3>& out);
