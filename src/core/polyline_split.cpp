@@ -71,11 +71,9 @@ void mergePieces(SplitWork& w, const SplitParams& p) {
     if (ml.n < 3.0 || ms.n < 3.0) return true;
     if (ms.n > ml.n) std::swap(ml, ms);
     lineThrough(ml, c, d, along);
-    if (!(along > 0.0)) return true;
     const Eigen::Vector3d q = ms.mean() - c;
     const double t = d.dot(q);
-    const double var = 1.0 / ml.n + t * t / along + 1.0 / ms.n;
-    return (q - d * t).norm() <= p.threshold(ms.mean().norm()) * std::sqrt(var);
+    return onOneLine((q - d * t).norm(), t, ml.n, along, ms.n, p.threshold(ms.mean().norm()));
   };
   std::size_t k = 0;
   for (std::size_t i = 1; i < w.pieces.size(); ++i) {

@@ -482,29 +482,21 @@ double ScanSplitter::lineDistance(int first, int last, int i) const {
 }
 
 bool ScanSplitter::piecesMeet(int first, int split, int last) const {
-  // Two pieces of one straight run: the shorter one's points lie, on
-  // average, on the longer one's line carried to them, within what the two
-  // leave uncertain (the significance level's sigmas, as d_T is of one
-  // point: a fit of n points at t from its centroid, S its points' sum of
-  // squares along it, is uncertain by sigma^2 (1 / n + t^2 / S), the other's
-  // mean by sigma^2 / m). A run that steps onto a surface a little behind
-  // the first (two blocks' fronts) leaves the shorter piece off the longer's
-  // line, though a line through both may pass within d_T of every point.
-  // Pieces of fewer than three points are not judged so.
+  // A run that steps onto a surface a little behind the first (two blocks'
+  // fronts) leaves the shorter piece off the longer's line, though a line
+  // through both may pass within d_T of every point (onOneLine). Pieces of
+  // fewer than three points are not judged so.
   Moments2 ml = rangeMoments(first, split), ms = rangeMoments(split + 1, last);
   if (ml.n < 3.0 || ms.n < 3.0) return true;
   if (ms.n > ml.n) std::swap(ml, ms);
   const LineFit f = fitLine(ml);
-  const Eigen::Vector2d normal(-f.direction.y(), f.direction.x());
-  const Eigen::Vector2d c(ms.sx / ms.n, ms.sy / ms.n);
-  const double t = f.direction.dot(c - f.centroid);
   const Eigen::Vector2d& d = f.direction;
+  const Eigen::Vector2d c(ms.sx / ms.n, ms.sy / ms.n);
   const double cx = ml.sx / ml.n, cy = ml.sy / ml.n;
-  const double s = (ml.sxx - ml.n * cx * cx) * d.x() * d.x() + 2.0 * (ml.sxy - ml.n * cx * cy) * d.x() * d.y() +
-                   (ml.syy - ml.n * cy * cy) * d.y() * d.y();
-  if (!(s > 0.0)) return true;
-  const double var = 1.0 / ml.n + t * t / s + 1.0 / ms.n;
-  return std::abs(normal.dot(c - f.centroid)) <= params_.threshold(c.norm()) * std::sqrt(var);
+  const double along = (ml.sxx - ml.n * cx * cx) * d.x() * d.x() + 2.0 * (ml.sxy - ml.n * cx * cy) * d.x() * d.y() +
+                       (ml.syy - ml.n * cy * cy) * d.y() * d.y();
+  return onOneLine(Eigen::Vector2d(-d.y(), d.x()).dot(c - f.centroid), d.dot(c - f.centroid), ml.n, along, ms.n,
+                   params_.threshold(c.norm()));
 }
 
 bool ScanSplitter::withinTolerance(int first, int last) const {

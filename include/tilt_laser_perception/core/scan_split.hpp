@@ -8,6 +8,7 @@
  */
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -47,6 +48,19 @@ struct LineFit {
 
 /// Fits a line to moments (n >= 2). The direction's sign is arbitrary.
 LineFit fitLine(const Moments2& m);
+
+/// Whether two pieces of a run lie on one line within their fits' noise (the
+/// split's merge test of the pieces, in 2D and 3D): the shorter one's mean
+/// lies `offset` [m] off the longer one's line, `t` [m] along it from its
+/// centroid; the longer has `n_long` points with sum of squares `along`
+/// [m^2] along its line, the shorter `n_short`. A line of n points carried t
+/// from its centroid is uncertain by sigma^2 (1 / n + t^2 / along), the
+/// other's mean by sigma^2 / n_short; `d_t` is the significance level's
+/// sigmas of one point (the split's threshold).
+inline bool onOneLine(double offset, double t, double n_long, double along, double n_short, double d_t) {
+  if (!(along > 0.0)) return true;
+  return std::abs(offset) <= d_t * std::sqrt(1.0 / n_long + t * t / along + 1.0 / n_short);
+}
 
 /// What makes an edge point.
 enum class EdgeKind : std::uint8_t {
