@@ -109,7 +109,7 @@ struct SplitParams {
   double jump_min = 0.05;    ///< depth jump threshold at zero range [m]
   double jump_ratio = 0.05;  ///< depth jump threshold growth with range [1]
   int min_points = 5;        ///< fewer points than this: no segment
-  bool merge = true;         ///< merge neighbouring pieces whose union lies within d_T of its fitted line
+  bool merge = true;         ///< merge neighbouring pieces whose union lies within d_T of its fitted line and that lie on one line (onOneLine)
   /// Mixed pixels: a beam whose neighbours on both sides lie along its own
   /// ray (within this angle), one nearer and one farther, is on no surface
   /// but between two: the veil a depth edge leaves over the footprint's
