@@ -53,7 +53,9 @@ void mergePieces(SplitWork& w, const SplitParams& p) {
   if (w.pieces.size() < 2) return;
   const auto point = [&](int i) { return Eigen::Vector3d(w.x[i], w.y[i], w.z[i]); };
   const auto mergeable = [&](int a, int split, int b) {
-    const Moments3 mu = runMoments(w, a, b);
+    Moments3 ml = runMoments(w, a, split), ms = runMoments(w, split + 1, b);
+    Moments3 mu = ml;
+    mu += ms;
     if (mu.n < 2.0) return true;
     Eigen::Vector3d c, d;
     double along = 0.0;
@@ -67,7 +69,6 @@ void mergePieces(SplitWork& w, const SplitParams& p) {
       if (i <= split) reach = std::max(reach, d.dot(point(i)));
       else if (reach - d.dot(point(i)) > p.threshold(w.r[i])) return false;
     }
-    Moments3 ml = runMoments(w, a, split), ms = runMoments(w, split + 1, b);
     if (ml.n < 3.0 || ms.n < 3.0) return true;
     if (ms.n > ml.n) std::swap(ml, ms);
     lineThrough(ml, c, d, along);
