@@ -23,14 +23,12 @@ struct SplitWork {
   std::vector<float> r;  // ranges; NaN: no return
   std::vector<std::pair<int, int>> stack, pieces;
 };
-}  // namespace
 
-namespace {
-/// The moments of the run's points [a, b] relative to the origin (NaN skipped).
+/// The moments of the run's points [a, b] relative to the origin (a run's
+/// points all have a return).
 Moments3 runMoments(const SplitWork& w, int a, int b) {
   Moments3 m;
-  for (int i = a; i <= b; ++i)
-    if (std::isfinite(w.r[i])) m.add(Eigen::Vector3d(w.x[i], w.y[i], w.z[i]));
+  for (int i = a; i <= b; ++i) m.add(Eigen::Vector3d(w.x[i], w.y[i], w.z[i]));
   return m;
 }
 
@@ -56,14 +54,12 @@ void mergePieces(SplitWork& w, const SplitParams& p) {
     Moments3 ml = runMoments(w, a, split), ms = runMoments(w, split + 1, b);
     Moments3 mu = ml;
     mu += ms;
-    if (mu.n < 2.0) return true;
     Eigen::Vector3d c, d;
     double along = 0.0;
     lineThrough(mu, c, d, along);
     if (d.dot(point(b) - point(a)) < 0.0) d = -d;
     double reach = -std::numeric_limits<double>::infinity();
     for (int i = a; i <= b; ++i) {
-      if (!std::isfinite(w.r[i])) continue;
       const Eigen::Vector3d q = point(i) - c;
       if ((q - d * d.dot(q)).norm() > p.threshold(w.r[i])) return false;
       if (i <= split) reach = std::max(reach, d.dot(point(i)));
