@@ -224,12 +224,15 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   // (`on_surface`, when given; an edge the sensor did not see, beyond its
   // field of view or in a shadow, no map can place, nor one line's few
   // points, which fit no plane). The map's edge there: the nearest place
-  // along the same line where the higher surface it knows ends towards the
-  // lower, within 10 cm
-  // (the distance along x or y: for an edge at an angle, more than across
-  // it); none within 10 cm counts 10 cm.
+  // along the same row (x or y) where the higher surface it knows ends
+  // towards the lower, within 10 cm along it; none counts 10 cm. Its error
+  // is that distance across the edge (times the cosine of the row's angle
+  // to the edge's normal), each edge judged by the row nearer its normal:
+  // along the other, an edge at 10 degrees to the row, a centimetre across
+  // it is six.
   std::vector<double> edge_err;
   const long reach = std::lround(0.10 / hp.resolution);
+  const long kAround = std::lround(0.05 / hp.resolution);
   const auto mapAt = [&](long ix, long iy) {
     return ix < 0 || iy < 0 || ix >= hp.width || iy >= hp.height
                ? std::numeric_limits<float>::quiet_NaN()
@@ -248,6 +251,19 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
         bool flat = true;
         for (int k = 1; k <= 3 && flat; ++k) flat = std::abs(t(-k) - a) < 0.005f && std::abs(t(1 + k) - b) < 0.005f;
         if (!flat) continue;
+        // Across the edge: the higher surface's cells about it, less the
+        // lower's, lie towards its normal (kAround cells either way). An edge
+        // whose normal lies more than 45 degrees off this row is the other
+        // row's to judge: along this row a centimetre across it is many.
+        Eigen::Vector2d towards = Eigen::Vector2d::Zero();
+        for (long dj = -kAround; dj <= kAround; ++dj)
+          for (long di = -kAround; di <= kAround; ++di) {
+            const float h = truth.at(i0 + ix + di, j0 + iy + dj);
+            const double side = std::abs(h - b) < 0.005f ? 1.0 : std::abs(h - a) < 0.005f ? -1.0 : 0.0;
+            towards += side * Eigen::Vector2d(di - 0.5 * ax, dj - 0.5 * ay);
+          }
+        const double across = std::abs(towards.dot(Eigen::Vector2d(ax, ay))) / std::max(towards.norm(), 1e-9);
+        if (across < std::sqrt(0.5)) continue;  // (a distance along the row times this is one across the edge)
         if (on_surface) {
           int line = -2;  // the one line seen so far (-2: none; -1: two or more)
           for (long k = 1; k <= reach && line != -1; ++k)
@@ -271,7 +287,7 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
         long best = reach;
         for (long k = -reach; k <= reach; ++k)
           if (high(k + up) && !high(k + 1 - up)) best = std::min(best, std::labs(k));
-        edge_err.push_back(best * hp.resolution);
+        edge_err.push_back(best * hp.resolution * across);
       }
   MapScore m;
   if (!edge_err.empty()) {
