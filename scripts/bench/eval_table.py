@@ -46,6 +46,8 @@ def summarize(evaluate, seeds, args):
         # step edges: the sweeps' medians and 95th percentiles, over the sweeps that saw an edge
         "edge_median_cm": 100 * nanmean([float(r.get("step_edge_median_m", "nan")) for r in rows]),
         "edge_p95_cm": 100 * nanmean([float(r.get("step_edge_p95_m", "nan")) for r in rows]),
+        # of the step edges in view, the share the map leaves unknown around (not judged above)
+        "edge_unknown_pct": 100 * nanmean([float(r.get("step_edge_unknown", "nan")) for r in rows]),
         "step_precision_pct": 100 * mean("steppable_precision"), "step_recall_pct": 100 * mean("steppable_recall"),
         "front": front("front_coverage"), "fused_front": front("fused_front_coverage"),
         "front_observable": front("front_observable"),

@@ -31,6 +31,13 @@ BEGIN = "<!-- report:summary begin (written by scripts/report.sh; do not edit) -
 END = "<!-- report:summary end -->"
 
 
+def edges(f):
+    """A scene's step edges: median / p95 of those the map shows; the share it leaves unknown."""
+    if f['edge_median_cm'] != f['edge_median_cm']:
+        return "-"
+    return f"{f['edge_median_cm']:.1f} / {f['edge_p95_cm']:.1f}; {f['edge_unknown_pct']:.1f}"
+
+
 def run(cmd, **kw):
     return subprocess.run(cmd, capture_output=True, text=True, check=True, **kw).stdout
 
@@ -73,8 +80,7 @@ class Report:
                              f"{f['correct']:.0f} / {f['true_faces']:.0f} ({100 * f['correct'] / max(f['true_faces'], 1):.1f} %)",
                              f"{f['noise']:.2f}", f"{f['missed']:.2f}", f"{f['normal_err_deg']:.2f}",
                              f"{f['rmse_cm']:.2f}", f"{f['walkable_cm']:.2f}",
-                             "-" if f['edge_median_cm'] != f['edge_median_cm'] else
-                             f"{f['edge_median_cm']:.1f} / {f['edge_p95_cm']:.1f}", f"{f['invented_pct']:.2f}",
+                             edges(f), f"{f['invented_pct']:.2f}",
                              f"{f['step_precision_pct']:.1f} / {f['step_recall_pct']:.1f}",
                              f"{f['latency_ms']:.2f}", f"{r['correct']:.0f}, noise {r['noise']:.2f}",
                              (f"{c['walkable_cm']:.2f}; " + ("-" if c['edge_median_cm'] != c['edge_median_cm'] else
@@ -94,6 +100,8 @@ class Report:
             "sweep's lines on its higher surface within 10 cm along and 5 cm across it) against where the map's "
             "higher surface ends along the same row or column, measured across the edge (each edge by the row or "
             "column nearer its normal), median and 95th percentile (10: not within 10 cm; "
+            "unknown: the share of the edges in view around which the map knows no cell of the row within 10 cm, "
+            "not judged; "
             "-: no step edge in view); invented: the share of the map's known "
             "cells whose true surface the sensor could not see (a ray cast to it); steppable: of the cells the map "
             "says a 0.24 x 0.14 m foot of any yaw fits, the share where it truly does (a disc of its radius on one "
@@ -103,7 +111,7 @@ class Report:
             "(`make_scene_bag --scene stairs --realistic --duration 10 --seed 7`, `calibrate` on it, `evaluate "
             "--calibration` its estimate).\n\n" +
             table(["scene", "rig", "correct faces", "noise", "missed", "normal error [deg]", "height map RMSE [cm]",
-                   "walkable RMSE [cm]", "step edges: median / p95 [cm]", "invented [%]",
+                   "walkable RMSE [cm]", "step edges: median / p95 [cm]; unknown [%]", "invented [%]",
                    "steppable: precision / recall [%]", "latency [ms]",
                    "lines reversed: correct", "calibrated: walkable RMSE; step edges median / p95 [cm]"], rows))
         st, sr = self.scene_figures[("stairs", False)], self.scene_figures[("stairs", True)]
@@ -157,8 +165,7 @@ class Report:
                 rows.append([name, f"{speed} rad/s ({f['lines']:.0f} lines)",
                              f"{f['correct']:.0f} / {f['true_faces']:.0f} ({100 * f['correct'] / max(f['true_faces'], 1):.1f} %)",
                              f"{f['rmse_cm']:.2f}", f"{f['walkable_cm']:.2f}",
-                             "-" if f['edge_median_cm'] != f['edge_median_cm'] else
-                             f"{f['edge_median_cm']:.1f} / {f['edge_p95_cm']:.1f}"])
+                             edges(f)])
         s = ",".join(map(str, seeds))
         self.section("A denser sweep: where step edges are placed",
                      f"python3 scripts/bench/eval_table.py BIN/evaluate --seeds {s} -- --scene NAME --sweeps 6 "
@@ -169,7 +176,7 @@ class Report:
                      "higher surface and the next line, which the map does not claim: its error is up to the lines' "
                      "spacing there (about 7 cm at 1.4 m from the head at 1 rad/s).\n\n" +
                      table(["scene", "sweep", "correct faces", "height map RMSE [cm]", "walkable RMSE [cm]",
-                            "step edges: median / p95 [cm]"], rows))
+                            "step edges: median / p95 [cm]; unknown [%]"], rows))
 
     def calibration_file(self):
         # The realistic rig calibrated as a user would: calibrate on 10 s of it

@@ -85,8 +85,9 @@ struct MapScore {
   /// map states for them (when it states one): an honest sigma leaves 5 %.
   double overconfident = 0.0;
   /// Step edges: the distance from each true step edge (a centimetre of it)
-  /// to the map's, median and 95th percentile [m] (NaN: none in view).
-  double edge_median = std::numeric_limits<double>::quiet_NaN(), edge_p95 = edge_median;
+  /// to the map's, median and 95th percentile [m] (NaN: none in view), over
+  /// those the map shows; the share of them it does not (unknown around).
+  double edge_median = std::numeric_limits<double>::quiet_NaN(), edge_p95 = edge_median, edge_unknown = edge_median;
 };
 
 /// The map cells (world indices at one resolution) that points fell in, and when.
@@ -225,12 +226,15 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
   // field of view or in a shadow, no map can place, nor one line's few
   // points, which fit no plane). The map's edge there: the nearest place
   // along the same row (x or y) where the higher surface it knows ends
-  // towards the lower, within 10 cm along it; none counts 10 cm. Its error
+  // towards the lower, within 10 cm along it; none counts 10 cm, unless the
+  // map knows no cell of the row within 10 cm on either side: an edge it
+  // does not show (unknown there), counted apart (edge_unknown). Its error
   // is that distance across the edge (times the cosine of the row's angle
   // to the edge's normal), each edge judged by the row nearer its normal:
   // along the other, an edge at 10 degrees to the row, a centimetre across
   // it is six.
   std::vector<double> edge_err;
+  std::size_t edges_unknown = 0;
   const long reach = std::lround(0.10 / hp.resolution);
   const long kAround = std::lround(0.05 / hp.resolution);
   const auto mapAt = [&](long ix, long iy) {
@@ -284,12 +288,20 @@ MapScore scoreMap(const core::HeightMapGrid& grid, TruthHeights& truth, const Ei
           const float h = mapAt(ix + k * ax, iy + k * ay);
           return !std::isnan(h) && h > mid;
         };
+        bool shown = false;
+        for (long k = -reach; k <= reach + 1 && !shown; ++k) shown = !std::isnan(mapAt(ix + k * ax, iy + k * ay));
+        if (!shown) {
+          ++edges_unknown;
+          continue;
+        }
         long best = reach;
         for (long k = -reach; k <= reach; ++k)
           if (high(k + up) && !high(k + 1 - up)) best = std::min(best, std::labs(k));
         edge_err.push_back(best * hp.resolution * across);
       }
   MapScore m;
+  if (edges_unknown + edge_err.size() > 0)
+    m.edge_unknown = static_cast<double>(edges_unknown) / static_cast<double>(edges_unknown + edge_err.size());
   if (!edge_err.empty()) {
     std::sort(edge_err.begin(), edge_err.end());
     m.edge_median = edge_err[edge_err.size() / 2];
@@ -477,6 +489,7 @@ SweepEval judge(const Scene& scene, TruthHeights& truth_h, TruthHeights& truth_f
   e.overconfident = single.overconfident;
   e.step_edge_median_m = single.edge_median;
   e.step_edge_p95_m = single.edge_p95;
+  e.step_edge_unknown = single.edge_unknown;
   e.invented = single.invented;
   e.heightmap_coverage = single.coverage;
   e.front_coverage = single.front;
@@ -643,21 +656,21 @@ std::string evalCsvHeader() {
          "edge_recall,heightmap_rmse_m,heightmap_coverage,split_ms,group_ms,latency_ms,veil_segments,overhanging_segments,"
          "front_coverage,fused_rmse_m,fused_coverage,fused_front_coverage,fused_ms,travelled_m,mixed_pixels,"
          "mixed_in_segments,front_observable,walkable_rmse_m,fused_walkable_rmse_m,invented,steppable_precision,"
-         "steppable_recall,fused_overconfident,step_edge_median_m,step_edge_p95_m,overconfident";
+         "steppable_recall,fused_overconfident,step_edge_median_m,step_edge_p95_m,overconfident,step_edge_unknown";
 }
 
 std::string evalCsvRow(int sweep, const SweepEval& e) {
   char buf[800];
   std::snprintf(buf, sizeof(buf),
                 "%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f,%.4f,%.3f,%.3f,%.4f,%.3f,%.2f,%.2f,%.3f,%d,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,"
-                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.4f",
+                "%d,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.4f,%.4f",
                 sweep, e.lines, e.planes, e.true_faces, e.correct, e.over, e.under, e.missed, e.noise,
                 e.normal_err_deg, e.offset_err_m, e.edge_precision, e.edge_recall, e.heightmap_rmse_m,
                 e.heightmap_coverage, e.split_ms, e.group_ms, e.latency_ms, e.veil_segments, e.overhanging_segments,
                 e.front_coverage, e.fused_rmse_m, e.fused_coverage, e.fused_front_coverage, e.fused_ms, e.travelled_m,
                 e.mixed_pixels, e.mixed_in_segments, e.front_observable, e.walkable_rmse_m, e.fused_walkable_rmse_m,
                 e.invented, e.steppable_precision, e.steppable_recall, e.fused_overconfident, e.step_edge_median_m,
-                e.step_edge_p95_m, e.overconfident);
+                e.step_edge_p95_m, e.overconfident, e.step_edge_unknown);
   return buf;
 }
 
@@ -667,8 +680,8 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
   const double n = ev.empty() ? 1.0 : static_cast<double>(ev.size());
   double correct = 0, over = 0, under = 0, missed = 0, noise = 0;
   int veil = 0, overhanging = 0;
-  double mixed = 0, mixed_in = 0, edge_median = 0, edge_p95 = 0;
-  int edge_sweeps = 0;
+  double mixed = 0, mixed_in = 0, edge_median = 0, edge_p95 = 0, edge_unknown = 0;
+  int edge_sweeps = 0, edge_seen_sweeps = 0;
   // The front of the feet is judged once the robot has walked its length
   // (before, the fused map has only what a standing robot sees): over the
   // sweeps after 1 m walked, or all when it stands.
@@ -709,6 +722,10 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
       edge_p95 += e.step_edge_p95_m;
       ++edge_sweeps;
     }
+    if (!std::isnan(e.step_edge_unknown)) {  // sweeps with a step edge in view
+      edge_unknown += e.step_edge_unknown;
+      ++edge_seen_sweeps;
+    }
     s.invented += e.invented / n;
     s.steppable_precision += e.steppable_precision / n;
     s.steppable_recall += e.steppable_recall / n;
@@ -722,7 +739,7 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
     fused_front /= front_n;
     observable /= front_n;
   }
-  char buf[1280];
+  char buf[1536];
   std::snprintf(buf, sizeof(buf),
                 "correct=%.2f over=%.2f under=%.2f missed=%.2f noise=%.2f normal_err_deg=%.3f offset_err_m=%.4f "
                 "edge_precision=%.3f edge_recall=%.3f heightmap_rmse_m=%.4f heightmap_coverage=%.3f split_ms=%.2f "
@@ -730,13 +747,14 @@ std::string evalSummary(const std::vector<SweepEval>& ev) {
                 "fused_rmse_m=%.4f fused_coverage=%.3f fused_front_coverage=%.3f fused_ms=%.3f mixed_pixels=%.1f "
                 "mixed_in_segments=%.1f front_observable=%.3f walkable_rmse_m=%.4f fused_walkable_rmse_m=%.4f "
                 "invented=%.4f steppable_precision=%.4f steppable_recall=%.4f fused_overconfident=%.4f "
-                "step_edge_median_m=%.3f step_edge_p95_m=%.3f overconfident=%.4f",
+                "step_edge_median_m=%.3f step_edge_p95_m=%.3f overconfident=%.4f step_edge_unknown=%.4f",
                 correct / n, over / n, under / n, missed / n, noise / n, s.normal_err_deg, s.offset_err_m,
                 s.edge_precision, s.edge_recall, s.heightmap_rmse_m, s.heightmap_coverage, s.split_ms, s.group_ms,
                 s.latency_ms, veil, overhanging, front, s.fused_rmse_m, s.fused_coverage, fused_front, s.fused_ms, mixed,
                 mixed_in, observable, s.walkable_rmse_m, s.fused_walkable_rmse_m, s.invented, s.steppable_precision,
                 s.steppable_recall, s.fused_overconfident, edge_sweeps ? edge_median / edge_sweeps : kNan,
-                edge_sweeps ? edge_p95 / edge_sweeps : kNan, s.overconfident);
+                edge_sweeps ? edge_p95 / edge_sweeps : kNan, s.overconfident,
+                edge_seen_sweeps ? edge_unknown / edge_seen_sweeps : kNan);
   return buf;
 }
 

@@ -98,9 +98,14 @@ struct SweepEval {
   /// between obstacle_min_height and max_step_height with 3 cm flat on each
   /// side, in view: two of the sweep's lines fell on its higher surface
   /// within 10 cm of it; the map's: where its heights pass the mid height
-  /// along the same row or column, within 10 cm, else 10 cm): median and 95th
-  /// percentile over each centimetre of edge [m]; NaN when none is in view.
+  /// along the same row or column, within 10 cm, else 10 cm; measured across
+  /// the edge): median and 95th percentile over each centimetre of edge the
+  /// map shows [m]; NaN when none is in view.
   double step_edge_median_m = std::numeric_limits<double>::quiet_NaN(), step_edge_p95_m = step_edge_median_m;
+  /// Of the step edges in view, the share the map does not show: it knows no
+  /// cell of the row within 10 cm on either side (unknown, which a planner
+  /// does not step on; no place to judge). NaN when none is in view.
+  double step_edge_unknown = std::numeric_limits<double>::quiet_NaN();
   /// The share of the sweep's known cells whose true surface the sensor could
   /// not see (hidden by something nearer along its ray): cells invented.
   double invented = 0.0;
