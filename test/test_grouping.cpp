@@ -705,6 +705,34 @@ TEST(Grouping, ARunOfShortPiecesBeforeAPlanesFirstLineJoinsItAsARunAfterItsLast)
   EXPECT_EQ(planes[0].points, 11 * 40 + 10 * 5);
 }
 
+TEST(Grouping, AStripsSegmentsJoinThePlaneBesideThemWhereNoLineNearTheirsOverlapsThemInBeams) {
+  // A floor (z = 0) crossed by lines 3 cm apart, but lines 6-15 all at one
+  // place (a sweep's reversal: the servo's reading did not change), which
+  // saw the floor in two pieces (y -0.6..0 and 0.05..0.6) where the others
+  // saw only the first. The second pieces make a strip (one scan plane: no
+  // plane of their own); no member of the floor within two lines of theirs
+  // overlaps them in beam index, as the late joins asked of a segment, but
+  // each lies beside its own line's first piece, on the floor: they join it
+  // (room_240's wall at the tilt axis: 3,747 points in no plane).
+  // The lines at one place differ by range noise only (+-1 mm along the
+  // rays, in their scan plane): a strip's plane is that scan plane.
+  std::vector<std::vector<Segment3>> lines;
+  const auto piece = [](int line, double x) { return seg(line, 100, {x, -0.6, 0.0}, {x, 0.0, 0.0}); };
+  for (int k = 0; k < 6; ++k) lines.push_back({piece(k, 1.0 + 0.03 * k)});
+  const Eigen::Vector3d towards = Eigen::Vector3d(-1.18, 0.0, 1.5).normalized();
+  for (int k = 6; k < 16; ++k) {
+    const Eigen::Vector3d d = (k % 2 ? 0.001 : -0.001) * towards;
+    const Eigen::Vector3d a(1.18, -0.6, 0.0), b(1.18, 0.0, 0.0), c(1.18, 0.05, 0.0), e(1.18, 0.6, 0.0);
+    lines.push_back({seg(k, 100, a + d, b + d), seg(k, 150, c + d, e + d)});
+  }
+  for (int k = 16; k < 22; ++k) lines.push_back({piece(k, 1.21 + 0.03 * (k - 16))});
+  ScanLineGrouper g;
+  const auto planes = group(lines, g);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_EQ(planes[0].segments, 32);
+  EXPECT_NEAR(std::abs(planes[0].fit.normal.z()), 1.0, 1e-4);
+}
+
 TEST(Grouping, ALineCutInPiecesPairsByItsLongestPiece) {
   // A riser x = 1.4 crossed by two lines. The split cut the second line at a
   // noise outlier: a short piece first (15 points, 2 cm off the riser) and

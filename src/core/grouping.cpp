@@ -322,14 +322,15 @@ int ScanLineGrouper::newRegion(int si) {
   return seg_region_[si];
 }
 
-int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines, bool lone) const {
+int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines, bool lone,
+                             bool beside_only) const {
   int best = -1;
   double best_score = 1e300;
   for (const int rj : among) {
     const Region& o = regions_[rj];
     if (rj == except || o.dead || o.lines < std::max(2, min_lines)) continue;
     if (s.line < o.first_line - params().max_line_gap || s.line > o.last_line + params().max_line_gap) continue;
-    bool overlap = false;
+    bool overlap = beside_only;
     const auto [m0, m1] = membersIn(o, s.line - params().max_line_gap, s.line + params().max_line_gap);
     for (auto mi = m0; mi != m1 && !overlap; ++mi)
       overlap = spans_[*mi].first <= s.last + params().beam_slack && s.first <= spans_[*mi].last + params().beam_slack;
@@ -782,7 +783,10 @@ void ScanLineGrouper::finish(std::vector<Plane>& planes, const LinePoints& point
     if (grouped && !strip) return;
     const Segment3& s = segs_[si];
     if (s.moments.n < 3) return;
-    const int best = bestFit(s, cand, ri, 2, true);
+    // A strip's lines lie in one scan plane (a sweep's reversal repeats a
+    // servo reading), so the lines near its segment are the strip's own: no
+    // member of the plane beside it need overlap it in beam index there.
+    const int best = bestFit(s, cand, ri, 2, true, strip);
     if (best < 0 || (strip && !tests_.planar(regions_[best]))) return;
     if (grouped) {
       removeMember(ri, static_cast<int>(si));

@@ -108,8 +108,10 @@ class ScanLineGrouper {
   /// may still join if r's plane refitted with it takes it.
   bool fits(const Region& r, const Segment3& s, double& score, bool lone = false) const;
   /// The region `among` those of `min_lines` lines (at least two) or more (not `except`)
-  /// that s fits best (`lone`: see fits()); it must overlap a member of the lines near s. -1 for none.
-  int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines, bool lone = false) const;
+  /// that s fits best (`lone`: see fits()); it must overlap a member of the lines near s in beam
+  /// index, or with `beside_only` lie beside one (fits()). -1 for none.
+  int bestFit(const Segment3& s, const std::vector<int>& among, int except, int min_lines, bool lone = false,
+              bool beside_only = false) const;
   /// Whether two segments of different lines seed a plane (side by side,
   /// the shorter beside 30 % of the longer or more, near, coplanar, and no
   /// line between them saw another surface beside them); a score, lowest
