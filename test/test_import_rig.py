@@ -197,16 +197,22 @@ def test_room_240_imports_and_groups(tmp_path):
     assert int(f.group(2)) > 5000 and float(f.group(3)) >= 80.0, grouped
     assert abs(int(f.group(4)) - 90) <= 2 and abs(float(f.group(5)) - 1.13) < 0.03, grouped
     assert int(f.group(6)) > 90000 and float(f.group(7)) >= 80.0, grouped
-    # The lines in the other order: the wall as whole within 3 % (87.3 against
-    # 84.5 %). It was 56 % in one plane until the split kept a run's step onto
-    # a surface a few centimetres behind out of one segment (its pieces' own
-    # lines compared: doc/notes/split.md), 60.5 % before the grazing-rays test.
+    # The lines in the other order: the wall as whole within 4 % (89.8 against
+    # 86.3 %; 87.3 against 84.5 % until a strip's segments joined the plane
+    # beside them late without a member of the lines near theirs overlapping
+    # them in beams, which took both up but the forward order's less: its
+    # strips at the reversal, near the tilt axis, have no wall member beside
+    # them in the lines near theirs). It was 56 % in one plane until the split
+    # kept a run's step onto a surface a few centimetres behind out of one
+    # segment (its pieces' own lines compared: doc/notes/split.md), 60.5 %
+    # before the grazing-rays test.
     rev = run(os.path.join(BIN, "group_bag"), out, "--urdf", out[:-4] + ".urdf", "--floor-z", "0.10", "--reverse")
     r = re.search(r"floor at z=[-\d.]+ m: \d+ points, ([\d.]+) % in plane .* largest wall \(normal (\d+) deg, "
                   r"([-\d.]+) m\): (\d+) points, ([\d.]+) % in plane", rev)
     assert r and float(r.group(1)) >= 80.0 and abs(float(r.group(3)) - 1.13) < 0.03, rev
     assert int(r.group(4)) == int(f.group(6)) and float(r.group(5)) >= 80.0, rev
-    assert abs(float(r.group(5)) - float(f.group(7))) <= 3.0, (grouped, rev)
+    assert float(f.group(7)) >= 86.0 and float(r.group(5)) >= 89.0, (grouped, rev)
+    assert abs(float(r.group(5)) - float(f.group(7))) <= 4.0, (grouped, rev)
 
 
 @pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "cardboard_box.bag")),
@@ -253,7 +259,7 @@ def test_cardboard_box_gives_its_four_faces(tmp_path):
 def test_first_scan_holds_its_table_top_and_wall_whichever_way_the_lines_come(tmp_path):
     # The stand's first test scan: a table top 17 cm below the laser (the
     # lowest level, seen 0.14-0.7 m away) and a wall 1.47 m away. The table
-    # top's largest plane holds 55 % of it (its near pieces tilt by the
+    # top's largest plane holds 60 % of it (its near pieces tilt by the
     # laser's own near-range bias: doc/notes/noise_model.md), the same within
     # 1 % with the lines reversed. The wall is two surfaces 3 cm apart; its
     # largest plane holds 47 % of its points forward (a strip fitted 17
@@ -272,7 +278,7 @@ def test_first_scan_holds_its_table_top_and_wall_whichever_way_the_lines_come(tm
         assert f and abs(float(f.group(4)) - 1.47) < 0.03, text
         shares[tuple(extra)] = (float(f.group(2)), float(f.group(5)))
     fwd, rev = shares[()], shares[("--reverse",)]
-    assert fwd[0] >= 55.0 and abs(fwd[0] - rev[0]) <= 1.0, shares
+    assert fwd[0] >= 60.0 and abs(fwd[0] - rev[0]) <= 1.0, shares
     assert min(fwd[1], rev[1]) >= 45.0, shares
 
 
