@@ -49,6 +49,19 @@ PlaneEvidence strip(std::mt19937& rng, const NoiseModel& m, int lines, double x0
 
 }  // namespace
 
+TEST(NoiseModel, FamilySigmasAreTheNormalsTailOverTheTests) {
+  // Any of n values of a normal beyond z sigmas: n erfc(z / sqrt 2) = the
+  // significance level's tail (0.27 % at 3 sigmas).
+  NoiseModel m;
+  EXPECT_NEAR(m.familySigmas(1), 3.0, 1e-3);
+  for (const std::size_t n : {10u, 1000u, 100000u}) {
+    const double z = m.familySigmas(n);
+    EXPECT_NEAR(n * std::erfc(z / std::sqrt(2.0)), std::erfc(3.0 / std::sqrt(2.0)), 1e-6) << n;
+  }
+  EXPECT_NEAR(m.familySigmas(1000), 4.69, 0.01);
+  EXPECT_GT(m.familySigmas(100000), m.familySigmas(1000));
+}
+
 TEST(NoiseModel, Chi2LimitsAreTheNormalsTail) {
   NoiseModel m;  // 3 sigmas: a tail of 0.27 %
   EXPECT_NEAR(m.chi2Limit(1), 9.0, 1e-3);

@@ -639,12 +639,13 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
   // significance sigmas) and beside its outline. Such a point is the face's
   // (a riser's beams in a short piece no plane took, scattered by range noise
   // over the cells in front of it and behind it), marked as its own points are.
-  const auto faceExplaining = [&](const Eigen::Vector3f& point, const Eigen::Vector3f& origin) -> const Plane* {
+  const auto faceExplaining = [&](const Eigen::Vector3f& point, const Eigen::Vector3f& origin,
+                                  double sigmas) -> const Plane* {
     const Eigen::Vector3d q = point.cast<double>();
     const Eigen::Vector3d ray = q - origin.cast<double>();
     const double range = ray.norm();
     if (!(range > 0.0)) return nullptr;
-    const double tol = p.noise.significance * p.noise.rangeSigma(range);
+    const double tol = sigmas * p.noise.rangeSigma(range);
     const Plane* best = nullptr;
     double best_along = tol;
     for (const Plane& pl : sweep.planes) {
@@ -664,6 +665,13 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
     }
     return best;
   };
+  // The points of no plane, judged against the faces once all are known:
+  // each is a test, and of the thousands a sweep has, a few lie beyond the
+  // significance level's sigmas of the face they are on by chance (a wall's
+  // points 4 sigmas in front of it, which marked the cells there with the
+  // wall's height). The tolerance is the one at which any of them is wrong
+  // by chance with the significance level's tail (NoiseModel::familySigmas).
+  std::vector<std::pair<int, int>> loose;  // (line, beam)
   std::size_t si = 0;
   for (std::size_t li = 0; li < sweep.lines.size(); ++li) {
     const std::vector<Eigen::Vector3f>& pts = sweep.lines[li].points;
@@ -674,7 +682,7 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       if (!inMap(pts[i])) return;
       while (ei < edges.size() && edges[ei].first < i) ++ei;
       if (ei < edges.size() && edges[ei].first == i && edges[ei].second == EdgeKind::Veil) return;
-      mark(pts[i], faceExplaining(pts[i], sweep.lines[li].origin));
+      loose.emplace_back(static_cast<int>(li), i);
     };
     // Beams outside the line's returns are not looked at (no point to load).
     auto [cursor, end] = sweep.lines[li].returns();
@@ -697,6 +705,11 @@ void buildHeightMap(const SweepResult& sweep, const HeightMapParams& p, HeightMa
       cursor = std::max(cursor, s.last + 1);
     }
     for (int i = cursor; i < end; ++i) markLoose(i);
+  }
+  const double loose_sigmas = p.noise.familySigmas(loose.size());
+  for (const auto& [li, i] : loose) {
+    const Eigen::Vector3f& q = sweep.lines[li].points[i];
+    mark(q, faceExplaining(q, sweep.lines[li].origin, loose_sigmas));
   }
 
   // Where a walkable plane may go on: across its outermost line, up to where

@@ -11,6 +11,11 @@ double NoiseModel::rangeSigma(double range) const { return std::max(range_sigma,
 
 double NoiseModel::chi2Limit(int dof) const { return chi2Quantile(dof, std::erfc(significance / std::sqrt(2.0))); }
 
+double NoiseModel::familySigmas(std::size_t tests) const {
+  if (tests <= 1) return significance;
+  return std::sqrt(chi2Quantile(1, std::erfc(significance / std::sqrt(2.0)) / static_cast<double>(tests)));
+}
+
 std::string NoiseModel::validate() const {
   if (!(range_sigma > 0.0) || !(range_sigma_ratio >= 0.0)) return "range noise must be > 0";
   if (!(line_sigma >= 0.0) || !(line_sigma < 0.5)) return "line pose error must be in [0, 0.5) rad";

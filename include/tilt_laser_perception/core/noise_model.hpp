@@ -68,6 +68,11 @@ struct NoiseModel {
   /// The chi-square quantile of `dof` degrees of freedom (1-3) whose tail is
   /// that of `significance` sigmas of a normal on both sides.
   double chi2Limit(int dof) const;
+  /// The sigmas within which all of `tests` independent values of a normal
+  /// lie but with the significance level's tail (a two-sided quantile at
+  /// that tail over `tests`): where a decision is taken for each of many
+  /// points, the level at which any of them is wrong by chance.
+  double familySigmas(std::size_t tests) const;
   std::string validate() const;
 };
 
