@@ -329,7 +329,6 @@ int ScanLineGrouper::bestFit(const Segment3& s, const std::vector<int>& among, i
   for (const int rj : among) {
     const Region& o = regions_[rj];
     if (rj == except || o.dead || o.lines < std::max(2, min_lines)) continue;
-    if (getenv("TLP_PO") && lone && (beside_only || atoi(getenv("TLP_PO")) == 2) && !tests_.planar(o)) continue;
     if (s.line < o.first_line - params().max_line_gap || s.line > o.last_line + params().max_line_gap) continue;
     bool overlap = beside_only;
     const auto [m0, m1] = membersIn(o, s.line - params().max_line_gap, s.line + params().max_line_gap);
